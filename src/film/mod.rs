@@ -1,0 +1,1 @@
+//! Film: accumulation and image output.

@@ -1,0 +1,11 @@
+//! wavepath: a data-oriented wavefront CPU path tracer.
+//!
+//! Data flows one way: [`scene`] loaders build a [`scene::Scene`], [`bvh`]
+//! turns its geometry into an acceleration structure, the [`wavefront`]
+//! stages move structure-of-arrays ray batches through it, and [`film`]
+//! accumulates and writes the image.
+
+pub mod bvh;
+pub mod film;
+pub mod ray;
+pub mod scene;

@@ -1,0 +1,155 @@
+//! The pinhole camera and the placement rule that decides framing.
+//!
+//! Scenes of the CS184 dialect do not place the camera where the file puts
+//! it: the renderer keeps only the view *direction* of the camera node,
+//! backs off from the centre of the scene bounds by 1.5 × the bounds'
+//! diagonal, and fits the field of view to an 800×600 screen. Reproducing
+//! that rule exactly is what makes our images frame like the reference.
+
+use glam::{Mat3, Vec3};
+
+/// Width and height of the screen the reference fits the field of view to.
+pub const FIT_WIDTH: f32 = 800.0;
+pub const FIT_HEIGHT: f32 = 600.0;
+
+/// Pinhole camera, independent of the output resolution.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    pub target: Vec3,
+    /// Camera-to-world rotation; columns are screen x, screen y and the
+    /// backward direction (the camera looks down its local −z).
+    pub camera_to_world: Mat3,
+    /// Distance from the eye to the image plane, in pixels of the 800×600 fit screen.
+    pub screen_distance: f32,
+    pub znear: f32,
+    pub zfar: f32,
+}
+
+/// The camera's optics as the scene file states them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Perspective {
+    /// Horizontal field of view in degrees, if given.
+    pub xfov: Option<f32>,
+    /// Vertical field of view in degrees, if given.
+    pub yfov: Option<f32>,
+    pub aspect_ratio: Option<f32>,
+    pub znear: Option<f32>,
+    pub zfar: Option<f32>,
+}
+
+impl Default for Perspective {
+    fn default() -> Self {
+        Perspective {
+            xfov: None,
+            yfov: None,
+            aspect_ratio: None,
+            znear: None,
+            zfar: None,
+        }
+    }
+}
+
+impl Perspective {
+    /// (hfov, vfov) in degrees before fitting, with the reference's defaults.
+    pub fn fov_degrees(&self) -> (f32, f32) {
+        let h = self.xfov.unwrap_or(50.0);
+        let v = match (self.yfov, self.aspect_ratio) {
+            (Some(v), _) => v,
+            (None, Some(a)) if a > 0.0 => {
+                2.0 * ((0.5 * h.to_radians()).tan() / a).atan().to_degrees()
+            }
+            _ => 35.0,
+        };
+        (h, v)
+    }
+}
+
+/// Per-resolution view parameters: the tangents of the half fields of view.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraView {
+    pub width: u32,
+    pub height: u32,
+    pub tan_half_hfov: f32,
+    pub tan_half_vfov: f32,
+}
+
+impl Camera {
+    /// Places the camera by the reference's rule.
+    ///
+    /// `view_dir` is the camera node's `T·(0,0,−1,1)` (not normalised; the
+    /// translation is included on purpose), `scene_bounds` the bounds of all
+    /// mesh vertices and spheres.
+    pub fn place(view_dir: Vec3, optics: &Perspective, scene_min: Vec3, scene_max: Vec3) -> Camera {
+        let c = view_dir.normalize_or(Vec3::Z);
+        let (target, r) = if scene_min.cmple(scene_max).all() {
+            (
+                0.5 * (scene_min + scene_max),
+                1.5 * (scene_max - scene_min).length(),
+            )
+        } else {
+            (Vec3::ZERO, 1.0)
+        };
+        let r = if r > 0.0 && r.is_finite() { r } else { 1.0 };
+        let position = target + r * c;
+        let back = (position - target).normalize_or(Vec3::Z);
+        // Screen x = Y × back; fall back to Z when looking straight up or down.
+        let mut screen_x = Vec3::Y.cross(back);
+        if screen_x.length_squared() < 1e-12 {
+            screen_x = Vec3::Z.cross(back);
+        }
+        let screen_x = screen_x.normalize();
+        let screen_y = back.cross(screen_x).normalize();
+
+        // Fit to the 800×600 screen: widen whichever field of view is too narrow.
+        let (h, v) = optics.fov_degrees();
+        let (mut tan_h, mut tan_v) = ((0.5 * h.to_radians()).tan(), (0.5 * v.to_radians()).tan());
+        let aspect = FIT_WIDTH / FIT_HEIGHT;
+        if tan_h / tan_v < aspect {
+            tan_h = tan_v * aspect;
+        } else {
+            tan_v = tan_h / aspect;
+        }
+        let _ = tan_h;
+        let screen_distance = FIT_HEIGHT / (2.0 * tan_v);
+
+        Camera {
+            position,
+            target,
+            camera_to_world: Mat3::from_cols(screen_x, screen_y, back),
+            screen_distance,
+            znear: optics.znear.unwrap_or(0.001),
+            zfar: optics.zfar.unwrap_or(1000.0),
+        }
+    }
+
+    /// View for a `width × height` render: the central crop of the fit screen
+    /// at the same screen distance.
+    pub fn view(&self, width: u32, height: u32) -> CameraView {
+        CameraView {
+            width,
+            height,
+            tan_half_hfov: width as f32 / (2.0 * self.screen_distance),
+            tan_half_vfov: height as f32 / (2.0 * self.screen_distance),
+        }
+    }
+
+    /// World-space direction (unnormalised, camera-space z = −1) through
+    /// film position `(fx, fy)` in pixels, y = 0 at the bottom row.
+    #[inline]
+    pub fn direction(&self, view: &CameraView, fx: f32, fy: f32) -> Vec3 {
+        let sx = (2.0 * fx / view.width as f32 - 1.0) * view.tan_half_hfov;
+        let sy = (2.0 * fy / view.height as f32 - 1.0) * view.tan_half_vfov;
+        self.camera_to_world * Vec3::new(sx, sy, -1.0)
+    }
+}
+
+impl CameraView {
+    /// Full horizontal and vertical field of view in degrees.
+    pub fn fov_degrees(&self) -> (f32, f32) {
+        (
+            2.0 * self.tan_half_hfov.atan().to_degrees(),
+            2.0 * self.tan_half_vfov.atan().to_degrees(),
+        )
+    }
+}

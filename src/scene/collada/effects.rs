@@ -1,0 +1,136 @@
+//! Materials: `<material>` → `<effect>` → a typed [`Material`].
+//!
+//! The renderer's own records live in an `<extra><technique profile="CGL">`
+//! (or the older `profile="CMU462"`); without one, the Phong/Lambert diffuse
+//! colour of `profile_COMMON` is a Lambertian reflectance.
+
+use glam::Vec3;
+use roxmltree::Node;
+
+use super::error::{LoadError, Source};
+use super::xml::{Ids, child, children, first_element, path};
+use crate::scene::Material;
+
+/// The renderer-specific `<technique>` inside `node`'s `<extra>`, if any.
+pub fn renderer_technique<'a, 'i>(node: Node<'a, 'i>) -> Option<Node<'a, 'i>> {
+    children(node, "extra")
+        .flat_map(|extra| children(extra, "technique"))
+        .find(|t| matches!(t.attribute("profile"), Some("CGL") | Some("CMU462")))
+}
+
+/// Reads an optional colour child, defaulting when absent.
+fn color_or(src: &Source, node: Node, name: &str, default: Vec3) -> Result<Vec3, LoadError> {
+    match child(node, name) {
+        Some(c) => src.vec3(c),
+        None => Ok(default),
+    }
+}
+
+fn scalar_or(src: &Source, node: Node, name: &str, default: f32) -> Result<f32, LoadError> {
+    match child(node, name) {
+        Some(c) => src.scalar(c),
+        None => Ok(default),
+    }
+}
+
+/// The material a `<material>` element describes.
+pub fn parse_material(
+    src: &Source,
+    ids: &Ids,
+    material: Node,
+    warnings: &mut Vec<String>,
+) -> Result<Material, LoadError> {
+    let Some(instance) = child(material, "instance_effect") else {
+        warnings.push(src.warning(
+            material,
+            format!(
+                "material {:?} has no <instance_effect>; using grey diffuse",
+                material.attribute("id").unwrap_or("")
+            ),
+        ));
+        return Ok(Material::DEFAULT);
+    };
+    let effect = ids.resolve(src, instance, "url", "effect")?;
+    parse_effect(src, effect, warnings)
+}
+
+fn parse_effect(
+    src: &Source,
+    effect: Node,
+    warnings: &mut Vec<String>,
+) -> Result<Material, LoadError> {
+    if let Some(record) = renderer_technique(effect).and_then(first_element) {
+        let one = Vec3::ONE;
+        let material = match record.tag_name().name() {
+            "emission" => Material::Emission {
+                radiance: src.vec3(src.require(record, "radiance")?)?,
+                one_sided: false,
+            },
+            "mirror" => Material::Mirror {
+                reflectance: color_or(src, record, "reflectance", one)?,
+            },
+            "glass" => Material::Glass {
+                reflectance: color_or(src, record, "reflectance", one)?,
+                transmittance: color_or(src, record, "transmittance", one)?,
+                roughness: scalar_or(src, record, "roughness", 0.0)?,
+                ior: scalar_or(src, record, "ior", 1.5)?,
+            },
+            "refraction" => Material::Refraction {
+                transmittance: color_or(src, record, "transmittance", one)?,
+                roughness: scalar_or(src, record, "roughness", 0.0)?,
+                ior: scalar_or(src, record, "ior", 1.5)?,
+            },
+            "microfacet" => Material::Microfacet {
+                alpha: scalar_or(src, record, "alpha", 0.5)?,
+                eta: src.vec3(src.require(record, "eta")?)?,
+                k: src.vec3(src.require(record, "k")?)?,
+            },
+            other => {
+                return Err(src.error(
+                    record,
+                    format!("unknown material record <{other}> (expected emission, mirror, glass, refraction or microfacet)"),
+                ));
+            }
+        };
+        if let Material::Glass { ior, .. } | Material::Refraction { ior, .. } = material {
+            if ior <= 0.0 {
+                return Err(src.error(record, format!("ior {ior} must be positive")));
+            }
+        }
+        return Ok(material);
+    }
+
+    // profile_COMMON: the first shading model's diffuse colour.
+    let technique = child(effect, "profile_COMMON").and_then(|p| {
+        children(p, "technique")
+            .find(|t| t.attribute("sid") == Some("common"))
+            .or_else(|| child(p, "technique"))
+    });
+    let diffuse = technique.and_then(|t| {
+        ["phong", "lambert", "blinn"]
+            .iter()
+            .find_map(|model| path(t, &[model, "diffuse"]))
+    });
+    match diffuse.and_then(|d| child(d, "color")) {
+        Some(color) => {
+            let albedo = src.vec3(color)?;
+            if albedo.min_element() < 0.0 {
+                return Err(src.error(
+                    color,
+                    format!("diffuse colour {albedo} has a negative component"),
+                ));
+            }
+            Ok(Material::Diffuse { albedo })
+        }
+        None => {
+            warnings.push(src.warning(
+                effect,
+                format!(
+                    "effect {:?} has no usable diffuse colour; using grey diffuse",
+                    effect.attribute("id").unwrap_or("")
+                ),
+            ));
+            Ok(Material::DEFAULT)
+        }
+    }
+}

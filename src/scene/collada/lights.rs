@@ -1,0 +1,85 @@
+//! `<light>` elements placed by their node's world transform.
+
+use glam::{Mat4, Vec3, Vec4};
+use roxmltree::Node;
+
+use super::effects::renderer_technique;
+use super::error::{LoadError, Source};
+use super::xml::{child, first_element};
+use crate::scene::Light;
+
+/// `T · (x, y, z, w)` as a 3-vector (the w of the result is dropped).
+fn apply(t: &Mat4, v: Vec4) -> Vec3 {
+    (*t * v).truncate()
+}
+
+/// The light a `<light>` describes, placed by world transform `t`; `None`
+/// (with a warning) for types the renderer has no use for.
+pub fn parse_light(
+    src: &Source,
+    light: Node,
+    t: &Mat4,
+    warnings: &mut Vec<String>,
+) -> Result<Option<Light>, LoadError> {
+    let record = renderer_technique(light)
+        .and_then(first_element)
+        .or_else(|| child(light, "technique_common").and_then(first_element))
+        .ok_or_else(|| {
+            src.error(
+                light,
+                "no light type (expected <technique_common> or a CGL <technique>)",
+            )
+        })?;
+    let kind = record.tag_name().name();
+    if kind == "spot" {
+        warnings.push(src.warning(light, "spot lights are not supported; skipped"));
+        return Ok(None);
+    }
+    let spectrum = src.vec3(src.require(record, "color")?)?;
+    if spectrum.min_element() < 0.0 {
+        return Err(src.error(
+            record,
+            format!("light colour {spectrum} has a negative component"),
+        ));
+    }
+    let p = apply(t, Vec4::W);
+    let light = match kind {
+        "point" => Light::Point {
+            position: p,
+            intensity: spectrum,
+        },
+        "directional" => {
+            // The reference transforms the direction with w = 1, so the node's
+            // translation leaks into it; reproduced for identical lighting.
+            let d = apply(t, Vec4::new(0.0, 0.0, -1.0, 1.0));
+            if d.length_squared() == 0.0 {
+                return Err(src.error(light, "directional light has a zero direction"));
+            }
+            Light::Directional {
+                to_light: d.normalize(),
+                radiance: spectrum,
+            }
+        }
+        "area" => {
+            let normal = apply(t, Vec4::new(0.0, 0.0, -1.0, 1.0)) - p;
+            let dim_x = apply(t, Vec4::new(-1.0, 0.0, 0.0, 1.0)) - p;
+            let dim_y = apply(t, Vec4::new(0.0, 1.0, 0.0, 1.0)) - p;
+            if normal.length_squared() == 0.0 || dim_x.cross(dim_y).length_squared() == 0.0 {
+                return Err(src.error(light, "area light is degenerate (zero area or normal)"));
+            }
+            Light::Area {
+                center: p,
+                normal: normal.normalize(),
+                dim_x,
+                dim_y,
+                radiance: spectrum,
+            }
+        }
+        "ambient" => Light::Hemisphere { radiance: spectrum },
+        other => {
+            warnings.push(src.warning(record, format!("unknown light type <{other}>; skipped")));
+            return Ok(None);
+        }
+    };
+    Ok(Some(light))
+}

@@ -1,0 +1,432 @@
+//! COLLADA (`.dae`) loader for the CS184/CMU462 scene dialect.
+//!
+//! Reads the subset the assignment scenes use, plus what the COLLADA spec
+//! says those elements may carry: meshes (`polylist`, `triangles`,
+//! `polygons`), renderer extensions (`profile="CGL"` / `"CMU462"`: spheres,
+//! lights, materials), the node hierarchy with its transforms, and the
+//! camera. The result is flat world-space data (see [`crate::scene::Scene`]).
+//!
+//! Every malformed input is a [`LoadError`] naming the file, the element and
+//! its line; the loader never panics on any input.
+
+mod effects;
+mod error;
+mod lights;
+mod mesh;
+mod transform;
+mod xml;
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use glam::{Mat4, Vec3, Vec4};
+use roxmltree::{Document, Node};
+
+pub use error::LoadError;
+use error::Source;
+use mesh::LocalMesh;
+use xml::{Ids, child, children, path};
+
+use crate::scene::{Camera, Geometry, Light, Material, NamedMaterial, Perspective, Scene};
+
+/// How deep `<node>`/`<instance_node>` nesting may go (guards against cycles).
+const MAX_NODE_DEPTH: usize = 256;
+
+/// Loads a `.dae` file.
+pub fn load_file(path: &Path) -> Result<Scene, LoadError> {
+    if path.is_dir() {
+        return Err(LoadError::file(path, "is a directory, not a scene file"));
+    }
+    let bytes =
+        std::fs::read(path).map_err(|e| LoadError::file(path, format!("cannot read: {e}")))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        LoadError::file(
+            path,
+            format!(
+                "not UTF-8 text (invalid byte at offset {})",
+                e.utf8_error().valid_up_to()
+            ),
+        )
+    })?;
+    load_str(&text, path)
+}
+
+/// Loads a scene from the text of a `.dae` file; `path` is used in messages.
+pub fn load_str(text: &str, path: &Path) -> Result<Scene, LoadError> {
+    if text.trim().is_empty() {
+        return Err(LoadError::file(path, "file is empty"));
+    }
+    let doc = Document::parse(text).map_err(|e| LoadError {
+        path: path.to_path_buf(),
+        line: Some(e.pos().row),
+        element: None,
+        message: format!("not well-formed XML: {e}"),
+    })?;
+    let src = Source { path, doc: &doc };
+    let root = doc.root_element();
+    if root.tag_name().name() != "COLLADA" {
+        return Err(src.error(
+            root,
+            "not a COLLADA document (the root element must be <COLLADA>)",
+        ));
+    }
+    let mut loader = Loader {
+        src: &src,
+        ids: Ids::index(&doc),
+        warnings: Vec::new(),
+        geometry: Geometry::default(),
+        materials: Vec::new(),
+        material_index: HashMap::new(),
+        meshes: HashMap::new(),
+        lights: Vec::new(),
+        camera: None,
+    };
+    loader.load(root)?;
+    Ok(loader.finish())
+}
+
+/// The camera node as found: world transform and optics.
+struct CameraNode {
+    world: Mat4,
+    optics: Perspective,
+}
+
+struct Loader<'s, 'a, 'i> {
+    src: &'s Source<'a, 'i>,
+    ids: Ids<'a, 'i>,
+    warnings: Vec<String>,
+    geometry: Geometry,
+    materials: Vec<NamedMaterial>,
+    /// Material element id → index into `materials`.
+    material_index: HashMap<String, u32>,
+    /// Geometry element id → parsed mesh, so instanced meshes parse once.
+    meshes: HashMap<String, LocalMesh>,
+    lights: Vec<Light>,
+    camera: Option<CameraNode>,
+}
+
+impl<'a, 'i> Loader<'_, 'a, 'i> {
+    fn load(&mut self, root: Node<'a, 'i>) -> Result<(), LoadError> {
+        let src = self.src;
+        let up = match path(root, &["asset", "up_axis"]) {
+            Some(node) => {
+                let axis = node.text().unwrap_or("").trim();
+                transform::up_axis_matrix(axis).ok_or_else(|| {
+                    src.error(
+                        node,
+                        format!("unknown up axis {axis:?} (expected X_UP, Y_UP or Z_UP)"),
+                    )
+                })?
+            }
+            None => {
+                self.warnings.push(format!(
+                    "{}: no <up_axis>; assuming Y_UP",
+                    src.path.display()
+                ));
+                Mat4::IDENTITY
+            }
+        };
+
+        let scene = match path(root, &["scene", "instance_visual_scene"]) {
+            Some(instance) => self.ids.resolve(src, instance, "url", "visual_scene")?,
+            None => child(root, "library_visual_scenes")
+                .and_then(|l| child(l, "visual_scene"))
+                .ok_or_else(|| src.error(root, "no <visual_scene> to render"))?,
+        };
+        for node in children(scene, "node") {
+            self.visit(node, &up, 0)?;
+        }
+        Ok(())
+    }
+
+    /// Walks a `<node>` with its parent's world transform.
+    fn visit(&mut self, node: Node<'a, 'i>, parent: &Mat4, depth: usize) -> Result<(), LoadError> {
+        let src = self.src;
+        if depth > MAX_NODE_DEPTH {
+            return Err(src.error(
+                node,
+                format!(
+                    "nodes nest deeper than {MAX_NODE_DEPTH} levels (a cycle of <instance_node>?)"
+                ),
+            ));
+        }
+        let world = *parent * transform::node_local_transform(src, node, &mut self.warnings)?;
+        for item in node.children().filter(|c| c.is_element()) {
+            match item.tag_name().name() {
+                "node" => self.visit(item, &world, depth + 1)?,
+                "instance_node" => {
+                    let target = self.ids.resolve(src, item, "url", "node")?;
+                    self.visit(target, &world, depth + 1)?;
+                }
+                "instance_geometry" => self.instance_geometry(item, &world)?,
+                "instance_light" => {
+                    let light = self.ids.resolve(src, item, "url", "light")?;
+                    if let Some(l) = lights::parse_light(src, light, &world, &mut self.warnings)? {
+                        self.lights.push(l);
+                    }
+                }
+                "instance_camera" => {
+                    let camera = self.ids.resolve(src, item, "url", "camera")?;
+                    let optics = self.perspective(camera)?;
+                    // The last camera in the file wins.
+                    self.camera = Some(CameraNode { world, optics });
+                }
+                "instance_controller" => self.warnings.push(src.warning(
+                    item,
+                    "skinned/morphed geometry (<instance_controller>) is not supported; skipped",
+                )),
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    fn perspective(&mut self, camera: Node) -> Result<Perspective, LoadError> {
+        let src = self.src;
+        let Some(p) = path(camera, &["optics", "technique_common", "perspective"]) else {
+            self.warnings.push(src.warning(
+                camera,
+                "camera is not perspective; using the default field of view",
+            ));
+            return Ok(Perspective::default());
+        };
+        let get = |name: &str| -> Result<Option<f32>, LoadError> {
+            child(p, name).map(|n| src.scalar(n)).transpose()
+        };
+        let optics = Perspective {
+            xfov: get("xfov")?,
+            yfov: get("yfov")?,
+            aspect_ratio: get("aspect_ratio")?,
+            znear: get("znear")?,
+            zfar: get("zfar")?,
+        };
+        for (name, value, max) in [("xfov", optics.xfov, 180.0), ("yfov", optics.yfov, 180.0)] {
+            if let Some(v) = value {
+                if !(v > 0.0 && v < max) {
+                    return Err(src.error(
+                        child(p, name).unwrap_or(p),
+                        format!("field of view {v}° is outside (0°, 180°)"),
+                    ));
+                }
+            }
+        }
+        if let Some(a) = optics.aspect_ratio {
+            if a <= 0.0 {
+                return Err(src.error(
+                    child(p, "aspect_ratio").unwrap_or(p),
+                    format!("aspect ratio {a} must be positive"),
+                ));
+            }
+        }
+        if let (Some(n), Some(f)) = (optics.znear, optics.zfar) {
+            if !(n >= 0.0 && f > n) {
+                return Err(src.error(
+                    p,
+                    format!("znear {n} and zfar {f} must satisfy 0 ≤ znear < zfar"),
+                ));
+            }
+        }
+        Ok(optics)
+    }
+
+    /// Index of the material bound to `symbol` in an `<instance_geometry>`.
+    fn bound_material(
+        &mut self,
+        instance: Node<'a, 'i>,
+        symbol: Option<&str>,
+    ) -> Result<u32, LoadError> {
+        let src = self.src;
+        let binding = path(instance, &["bind_material", "technique_common"]).and_then(|t| {
+            children(t, "instance_material")
+                .find(|m| symbol.is_none() || m.attribute("symbol") == symbol)
+        });
+        let material = match binding {
+            Some(b) => Some(self.ids.resolve(src, b, "target", "material")?),
+            // Unbound symbol: exporters often use the material id itself.
+            None => symbol
+                .and_then(|s| self.ids.get(s))
+                .filter(|n| n.tag_name().name() == "material"),
+        };
+        let Some(material) = material else {
+            return Ok(self.default_material());
+        };
+        let id = material.attribute("id").unwrap_or("").to_string();
+        if let Some(&index) = self.material_index.get(&id) {
+            return Ok(index);
+        }
+        let parsed = effects::parse_material(src, &self.ids, material, &mut self.warnings)?;
+        let name = material.attribute("name").unwrap_or(&id).to_string();
+        Ok(self.add_material(id, name, parsed))
+    }
+
+    fn add_material(&mut self, id: String, name: String, material: Material) -> u32 {
+        let index = self.materials.len() as u32;
+        self.materials.push(NamedMaterial { name, material });
+        self.material_index.insert(id, index);
+        index
+    }
+
+    fn default_material(&mut self) -> u32 {
+        const KEY: &str = "\0default";
+        match self.material_index.get(KEY) {
+            Some(&i) => i,
+            None => self.add_material(KEY.into(), "default".into(), Material::DEFAULT),
+        }
+    }
+
+    fn instance_geometry(&mut self, instance: Node<'a, 'i>, world: &Mat4) -> Result<(), LoadError> {
+        let src = self.src;
+        let geometry = self.ids.resolve(src, instance, "url", "geometry")?;
+        if let Some(mesh_node) = child(geometry, "mesh") {
+            let id = geometry.attribute("id").unwrap_or("").to_string();
+            if !self.meshes.contains_key(&id) {
+                let (mesh, warnings) = mesh::parse_mesh(src, &self.ids, mesh_node)?;
+                self.warnings.extend(warnings);
+                self.meshes.insert(id.clone(), mesh);
+            }
+            let symbols = self.meshes[&id].symbols.clone();
+            let materials = symbols
+                .iter()
+                .map(|s| self.bound_material(instance, s.as_deref()))
+                .collect::<Result<Vec<u32>, _>>()?;
+            self.add_mesh(&id, &materials, world);
+            return Ok(());
+        }
+        let sphere = effects::renderer_technique(geometry).and_then(|t| child(t, "sphere"));
+        if let Some(sphere) = sphere {
+            let radius = src.scalar(src.require(sphere, "radius")?)?;
+            if radius <= 0.0 {
+                return Err(src.error(sphere, format!("sphere radius {radius} must be positive")));
+            }
+            // Radius scales with the length of the transformed x axis.
+            let scale = (*world * Vec4::X).truncate().length();
+            let center = (*world * Vec4::W).truncate();
+            let radius = radius * scale;
+            if !(radius > 0.0 && radius.is_finite()) {
+                return Err(src.error(
+                    instance,
+                    format!("sphere's world radius {radius} is not a positive finite number"),
+                ));
+            }
+            let material = self.bound_material(instance, None)?;
+            let spheres = &mut self.geometry.spheres;
+            spheres.center.push(center);
+            spheres.radius.push(radius);
+            spheres.material.push(material);
+            return Ok(());
+        }
+        self.warnings.push(src.warning(
+            geometry,
+            "geometry is neither a <mesh> nor a sphere; skipped",
+        ));
+        Ok(())
+    }
+
+    /// Appends a parsed mesh in world space with smooth vertex normals.
+    fn add_mesh(&mut self, id: &str, materials: &[u32], world: &Mat4) {
+        let mesh = &self.meshes[id];
+        let tris = &mut self.geometry.triangles;
+        let base = tris.positions.len() as u32;
+        let first_normal = tris.normals.len();
+        tris.positions
+            .extend(mesh.positions.iter().map(|&p| world.transform_point3(p)));
+        tris.normals.resize(tris.positions.len(), Vec3::ZERO);
+        let had_texcoords = tris.texcoords.len() == tris.indices.len();
+        for (t, &[a, b, c]) in mesh.triangles.iter().enumerate() {
+            let idx = [a + base, b + base, c + base];
+            // Area-weighted normal: the unnormalised cross product.
+            let [pa, pb, pc] = idx.map(|i| tris.positions[i as usize]);
+            let n = (pb - pa).cross(pc - pa);
+            for i in idx {
+                tris.normals[i as usize] += n;
+            }
+            tris.indices.push(idx);
+            tris.material
+                .push(materials[mesh.symbol_of_triangle[t] as usize]);
+        }
+        for n in &mut tris.normals[first_normal..] {
+            *n = n.normalize_or_zero();
+        }
+        // Texture coordinates are kept only while every mesh so far has them.
+        if had_texcoords && !mesh.texcoords.is_empty() {
+            tris.texcoords.extend_from_slice(&mesh.texcoords);
+        } else {
+            tris.texcoords.clear();
+        }
+    }
+
+    fn finish(mut self) -> Scene {
+        // The camera frames mesh vertices and spheres only (not lights).
+        let bounds = self.geometry.bounds();
+        let (view_dir, optics) = match &self.camera {
+            // T·(0,0,−1,1): the translation is included on purpose (see camera.rs).
+            Some(c) => (
+                (c.world * Vec4::new(0.0, 0.0, -1.0, 1.0)).truncate(),
+                c.optics,
+            ),
+            None => {
+                self.warnings.push(format!(
+                    "{}: no camera; viewing from +z",
+                    self.src.path.display()
+                ));
+                (Vec3::Z, Perspective::default())
+            }
+        };
+        if view_dir.length_squared() == 0.0 {
+            self.warnings.push(format!(
+                "{}: the camera's view direction is zero; viewing from +z",
+                self.src.path.display()
+            ));
+        }
+        let camera = Camera::place(view_dir, &optics, bounds.min, bounds.max);
+
+        // Area lights are geometry too: one-sided emissive rectangles.
+        for light in &self.lights {
+            if let (
+                Some(corners),
+                Light::Area {
+                    normal, radiance, ..
+                },
+            ) = (light.area_corners(), light)
+            {
+                let index = self.materials.len() as u32;
+                self.materials.push(NamedMaterial {
+                    name: format!("area light {}", index),
+                    material: Material::Emission {
+                        radiance: *radiance,
+                        one_sided: true,
+                    },
+                });
+                let tris = &mut self.geometry.triangles;
+                let base = tris.positions.len() as u32;
+                tris.positions.extend_from_slice(&corners);
+                tris.normals.extend_from_slice(&[*normal; 4]);
+                // Wind so that the geometric normal is the light's normal.
+                let along = (corners[1] - corners[0])
+                    .cross(corners[2] - corners[0])
+                    .dot(*normal)
+                    > 0.0;
+                let quad: [[u32; 3]; 2] = if along {
+                    [[0, 1, 2], [0, 2, 3]]
+                } else {
+                    [[0, 2, 1], [0, 3, 2]]
+                };
+                for q in quad {
+                    tris.indices.push(q.map(|i| i + base));
+                    tris.material.push(index);
+                }
+                if !tris.texcoords.is_empty() {
+                    tris.texcoords
+                        .extend_from_slice(&[[glam::Vec2::ZERO; 3]; 2]);
+                }
+            }
+        }
+        Scene {
+            geometry: self.geometry,
+            materials: self.materials,
+            lights: self.lights,
+            camera,
+            warnings: self.warnings,
+        }
+    }
+}

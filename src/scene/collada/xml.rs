@@ -1,0 +1,175 @@
+//! Small helpers over roxmltree: namespace-free element lookup, checked
+//! number lists and `#url` resolution, each failing with a located error.
+
+use std::collections::HashMap;
+
+use glam::Vec3;
+use roxmltree::Node;
+
+use super::error::{LoadError, Source};
+
+/// First child element with local name `name`.
+pub fn child<'a, 'i>(node: Node<'a, 'i>, name: &str) -> Option<Node<'a, 'i>> {
+    node.children()
+        .find(|c| c.is_element() && c.tag_name().name() == name)
+}
+
+/// All child elements with local name `name`.
+pub fn children<'a, 'i: 'a>(
+    node: Node<'a, 'i>,
+    name: &'a str,
+) -> impl Iterator<Item = Node<'a, 'i>> + 'a {
+    node.children()
+        .filter(move |c| c.is_element() && c.tag_name().name() == name)
+}
+
+/// First child element, whatever its name.
+pub fn first_element<'a, 'i>(node: Node<'a, 'i>) -> Option<Node<'a, 'i>> {
+    node.children().find(|c| c.is_element())
+}
+
+/// Follows a path of child names.
+pub fn path<'a, 'i>(node: Node<'a, 'i>, names: &[&str]) -> Option<Node<'a, 'i>> {
+    names.iter().try_fold(node, |n, name| child(n, name))
+}
+
+impl Source<'_, '_> {
+    /// The whitespace-separated numbers of `node`'s text, all finite.
+    pub fn floats(&self, node: Node) -> Result<Vec<f32>, LoadError> {
+        let text = node.text().unwrap_or("");
+        let mut out = Vec::with_capacity(text.len() / 4);
+        for (i, token) in text.split_ascii_whitespace().enumerate() {
+            let value: f32 = token.parse().map_err(|_| {
+                self.error(node, format!("value {} is not a number: {token:?}", i + 1))
+            })?;
+            if !value.is_finite() {
+                return Err(self.error(
+                    node,
+                    format!(
+                        "value {} is not finite: {token:?} (NaN and infinity are rejected)",
+                        i + 1
+                    ),
+                ));
+            }
+            out.push(value);
+        }
+        Ok(out)
+    }
+
+    /// The whitespace-separated unsigned integers of `node`'s text.
+    pub fn uints(&self, node: Node) -> Result<Vec<u32>, LoadError> {
+        let text = node.text().unwrap_or("");
+        let mut out = Vec::with_capacity(text.len() / 3);
+        for (i, token) in text.split_ascii_whitespace().enumerate() {
+            let value: u32 = token.parse().map_err(|_| {
+                self.error(
+                    node,
+                    format!("value {} is not a non-negative integer: {token:?}", i + 1),
+                )
+            })?;
+            out.push(value);
+        }
+        Ok(out)
+    }
+
+    /// Exactly `n` numbers (more are an error too: they mean a malformed record).
+    pub fn floats_n(&self, node: Node, n: usize) -> Result<Vec<f32>, LoadError> {
+        let v = self.floats(node)?;
+        if v.len() != n {
+            return Err(self.error(node, format!("expected {n} numbers, found {}", v.len())));
+        }
+        Ok(v)
+    }
+
+    /// At least three numbers, as a colour or vector (a fourth, alpha, is ignored).
+    pub fn vec3(&self, node: Node) -> Result<Vec3, LoadError> {
+        let v = self.floats(node)?;
+        if v.len() < 3 || v.len() > 4 {
+            return Err(self.error(node, format!("expected 3 numbers, found {}", v.len())));
+        }
+        Ok(Vec3::new(v[0], v[1], v[2]))
+    }
+
+    /// A single finite number.
+    pub fn scalar(&self, node: Node) -> Result<f32, LoadError> {
+        Ok(self.floats_n(node, 1)?[0])
+    }
+
+    /// A non-negative integer attribute, if present.
+    pub fn usize_attr(&self, node: Node, name: &str) -> Result<Option<usize>, LoadError> {
+        match node.attribute(name) {
+            None => Ok(None),
+            Some(s) => s.trim().parse().map(Some).map_err(|_| {
+                self.error(
+                    node,
+                    format!("attribute {name}={s:?} is not a non-negative integer"),
+                )
+            }),
+        }
+    }
+
+    /// A required attribute.
+    pub fn attr<'a>(&self, node: Node<'a, '_>, name: &str) -> Result<&'a str, LoadError> {
+        node.attribute(name)
+            .ok_or_else(|| self.error(node, format!("missing attribute {name}")))
+    }
+
+    /// A required child element.
+    pub fn require<'a, 'i>(
+        &self,
+        node: Node<'a, 'i>,
+        name: &str,
+    ) -> Result<Node<'a, 'i>, LoadError> {
+        child(node, name).ok_or_else(|| self.error(node, format!("missing <{name}>")))
+    }
+}
+
+/// Every element with an `id`, for resolving `#url` references.
+pub struct Ids<'a, 'i> {
+    map: HashMap<&'a str, Node<'a, 'i>>,
+}
+
+impl<'a, 'i> Ids<'a, 'i> {
+    pub fn index(doc: &'a roxmltree::Document<'i>) -> Self {
+        let map = doc
+            .descendants()
+            .filter(|n| n.is_element())
+            .filter_map(|n| n.attribute("id").map(|id| (id, n)))
+            .collect();
+        Ids { map }
+    }
+
+    pub fn get(&self, id: &str) -> Option<Node<'a, 'i>> {
+        self.map.get(id).copied()
+    }
+
+    /// Resolves the `#id` in attribute `attr` of `node`, expecting an element named `kind`.
+    pub fn resolve(
+        &self,
+        src: &Source,
+        node: Node,
+        attr: &str,
+        kind: &str,
+    ) -> Result<Node<'a, 'i>, LoadError> {
+        let url = src.attr(node, attr)?;
+        let id = url.strip_prefix('#').ok_or_else(|| {
+            src.error(
+                node,
+                format!("{attr}={url:?} is not a local reference (expected \"#id\")"),
+            )
+        })?;
+        let target = self
+            .get(id)
+            .ok_or_else(|| src.error(node, format!("{attr}={url:?} refers to no element")))?;
+        if target.tag_name().name() != kind {
+            return Err(src.error(
+                node,
+                format!(
+                    "{attr}={url:?} refers to a <{}>, expected a <{kind}>",
+                    target.tag_name().name()
+                ),
+            ));
+        }
+        Ok(target)
+    }
+}

@@ -1,0 +1,62 @@
+//! Light sources, in world space, as the scene file defines them.
+
+use glam::Vec3;
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Light {
+    /// Isotropic point light; irradiance falls off as `intensity / d²`.
+    Point { position: Vec3, intensity: Vec3 },
+    /// Light from a single direction; `to_light` is a unit vector pointing at the light.
+    Directional { to_light: Vec3, radiance: Vec3 },
+    /// One-sided rectangle emitting `radiance` toward `normal`.
+    /// Corners are `center ± dim_x/2 ± dim_y/2`.
+    Area {
+        center: Vec3,
+        normal: Vec3,
+        dim_x: Vec3,
+        dim_y: Vec3,
+        radiance: Vec3,
+    },
+    /// Uniform sky over the upper (+y) hemisphere; invisible to camera rays.
+    Hemisphere { radiance: Vec3 },
+}
+
+impl Light {
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Light::Point { .. } => "point",
+            Light::Directional { .. } => "directional",
+            Light::Area { .. } => "area",
+            Light::Hemisphere { .. } => "hemisphere",
+        }
+    }
+
+    /// Area of an area light (0 for the others).
+    pub fn area(&self) -> f32 {
+        match self {
+            Light::Area { dim_x, dim_y, .. } => dim_x.length() * dim_y.length(),
+            _ => 0.0,
+        }
+    }
+
+    /// The four corners of an area light in winding order.
+    pub fn area_corners(&self) -> Option<[Vec3; 4]> {
+        match self {
+            Light::Area {
+                center,
+                dim_x,
+                dim_y,
+                ..
+            } => {
+                let (hx, hy) = (0.5 * *dim_x, 0.5 * *dim_y);
+                Some([
+                    *center - hx - hy,
+                    *center + hx - hy,
+                    *center + hx + hy,
+                    *center - hx + hy,
+                ])
+            }
+            _ => None,
+        }
+    }
+}
