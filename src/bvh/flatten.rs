@@ -1,0 +1,265 @@
+//! Collapsing the binary build tree into [`WIDTH`]-wide nodes.
+//!
+//! A binary BVH spends most of its traversal time on dependent loads: one
+//! node, one box test, one branch. A wide node holds the boxes of up to
+//! [`WIDTH`] children as one SIMD register per slab plane, so a single node
+//! visit tests all of them at once and the tree is about three times
+//! shallower (Wald et al., "Getting Rid of Packets", 2008; Dammertz et al.,
+//! "Shallow Bounding Volume Hierarchies", 2008).
+//!
+//! Collapsing is greedy: starting from a node's two children, the interior
+//! child with the largest surface area (the one most likely to be entered)
+//! is replaced by its own two children until the node is full.
+//!
+//! Children are referred to by 32-bit [`ChildRef`]s that encode either a
+//! node index or a leaf (kind, first item, item count), so a node is exactly
+//! 6 bound registers plus [`WIDTH`] `u32`s, and leaves need no table of
+//! their own. Leaf triangles are copied, in tree order, into contiguous
+//! [`TriGroup`]s so that a leaf is one or two straight SIMD tests.
+
+use glam::Vec3;
+
+use super::build::BuildNode;
+use super::sphere::PackedSphere;
+use super::triangle::TriGroup;
+use super::{Lanes, WIDTH};
+use crate::scene::{Aabb, Geometry};
+
+/// One wide node: the bounds of up to [`WIDTH`] children, lane-wise.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub(crate) struct WideNode {
+    /// `bounds[0]` = minimum corner, `bounds[1]` = maximum corner, one
+    /// register per axis. Empty slots hold an inverted (+∞, −∞) box, which
+    /// the slab test never hits, so traversal needs no occupancy mask.
+    pub bounds: [[Lanes; 3]; 2],
+    pub child: [ChildRef; WIDTH],
+}
+
+/// A child reference packed into 32 bits.
+///
+/// * bit 31 clear: interior node index.
+/// * bit 31 set: leaf; bit 30 = sphere leaf; bits 27..30 = item count − 1;
+///   bits 0..27 = index of the first item (a [`TriGroup`] for triangle
+///   leaves, a [`PackedSphere`] for sphere leaves).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(transparent)]
+pub(crate) struct ChildRef(pub u32);
+
+impl ChildRef {
+    const LEAF: u32 = 1 << 31;
+    const SPHERE: u32 = 1 << 30;
+    const COUNT_SHIFT: u32 = 27;
+    /// Maximum items (groups or spheres) in one leaf.
+    pub const MAX_ITEMS: u32 = 8;
+    const INDEX_MASK: u32 = (1 << Self::COUNT_SHIFT) - 1;
+    /// Placeholder for unused slots (never traversed: their box is empty).
+    pub const EMPTY: ChildRef = ChildRef(Self::LEAF);
+
+    pub fn node(index: u32) -> ChildRef {
+        assert!(index < Self::LEAF, "too many BVH nodes");
+        ChildRef(index)
+    }
+
+    pub fn leaf(sphere: bool, first: u32, count: u32) -> ChildRef {
+        assert!(
+            first <= Self::INDEX_MASK,
+            "too many leaf items for 27-bit indices"
+        );
+        debug_assert!((1..=Self::MAX_ITEMS).contains(&count));
+        ChildRef(
+            Self::LEAF
+                | if sphere { Self::SPHERE } else { 0 }
+                | ((count - 1) << Self::COUNT_SHIFT)
+                | first,
+        )
+    }
+
+    #[inline(always)]
+    pub fn is_leaf(self) -> bool {
+        self.0 & Self::LEAF != 0
+    }
+
+    #[inline(always)]
+    pub fn is_sphere(self) -> bool {
+        self.0 & Self::SPHERE != 0
+    }
+
+    #[inline(always)]
+    pub fn index(self) -> usize {
+        (self.0 & Self::INDEX_MASK) as usize
+    }
+
+    #[inline(always)]
+    pub fn count(self) -> usize {
+        (((self.0 >> Self::COUNT_SHIFT) & 7) + 1) as usize
+    }
+}
+
+/// The flattened hierarchy and its leaf data.
+pub(crate) struct Flat {
+    pub nodes: Vec<WideNode>,
+    pub tri_groups: Vec<TriGroup>,
+    pub spheres: Vec<PackedSphere>,
+    /// Reference to the root (always node 0 when there is a tree).
+    pub root: Option<ChildRef>,
+    /// Wide levels on the longest root-to-leaf path.
+    pub depth: usize,
+}
+
+/// Flattens the binary tree `root` whose leaves index `order`.
+pub(crate) fn flatten(root: Option<&BuildNode>, order: &[u32], geometry: &Geometry) -> Flat {
+    let mut flat = Flat {
+        nodes: Vec::new(),
+        tri_groups: Vec::new(),
+        spheres: Vec::new(),
+        root: None,
+        depth: 0,
+    };
+    let Some(root) = root else {
+        return flat;
+    };
+    let mut ctx = Ctx {
+        flat: &mut flat,
+        order,
+        geometry,
+    };
+    // The root is always an interior wide node, even for a single leaf, so
+    // traversal can start with a box test unconditionally.
+    let slots: Vec<&BuildNode> = match root {
+        BuildNode::Inner { .. } => collapse_children(root),
+        BuildNode::Leaf { .. } => vec![root],
+    };
+    let depth = ctx.emit_node(&slots);
+    flat.root = Some(ChildRef::node(0));
+    flat.depth = depth;
+    flat
+}
+
+struct Ctx<'a> {
+    flat: &'a mut Flat,
+    order: &'a [u32],
+    geometry: &'a Geometry,
+}
+
+/// Gathers up to [`WIDTH`] descendants of interior node `node` by repeatedly
+/// opening the interior child with the largest surface area.
+fn collapse_children(node: &BuildNode) -> Vec<&BuildNode> {
+    let BuildNode::Inner { children, .. } = node else {
+        unreachable!("collapse_children on a leaf")
+    };
+    let mut slots: Vec<&BuildNode> = vec![&children[0], &children[1]];
+    while slots.len() < WIDTH {
+        let best = slots
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| matches!(n, BuildNode::Inner { .. }))
+            .max_by(|a, b| {
+                a.1.bounds()
+                    .surface_area()
+                    .total_cmp(&b.1.bounds().surface_area())
+            });
+        let Some((i, _)) = best else { break };
+        let BuildNode::Inner { children, .. } = slots.swap_remove(i) else {
+            unreachable!()
+        };
+        slots.push(&children[0]);
+        slots.push(&children[1]);
+    }
+    slots
+}
+
+impl Ctx<'_> {
+    /// Appends a wide node with children `slots`; returns the depth of the
+    /// subtree below it (in wide levels, counting itself).
+    fn emit_node(&mut self, slots: &[&BuildNode]) -> usize {
+        let index = self.flat.nodes.len();
+        self.flat.nodes.push(WideNode {
+            bounds: [
+                [Lanes::splat(f32::INFINITY); 3],
+                [Lanes::splat(f32::NEG_INFINITY); 3],
+            ],
+            child: [ChildRef::EMPTY; WIDTH],
+        });
+        let mut lo = [[f32::INFINITY; WIDTH]; 3];
+        let mut hi = [[f32::NEG_INFINITY; WIDTH]; 3];
+        let mut child = [ChildRef::EMPTY; WIDTH];
+        let mut depth = 1;
+        for (slot, node) in slots.iter().enumerate() {
+            let b = node.bounds();
+            for axis in 0..3 {
+                lo[axis][slot] = b.min[axis];
+                hi[axis][slot] = b.max[axis];
+            }
+            child[slot] = match node {
+                BuildNode::Leaf { start, count, .. } => {
+                    self.emit_leaf(&self.order[*start as usize..(*start + *count) as usize])
+                }
+                BuildNode::Inner { .. } => {
+                    let c = ChildRef::node(self.flat.nodes.len() as u32);
+                    depth = depth.max(1 + self.emit_node(&collapse_children(node)));
+                    c
+                }
+            };
+        }
+        let n = &mut self.flat.nodes[index];
+        n.bounds = [lo.map(Lanes::from), hi.map(Lanes::from)];
+        n.child = child;
+        depth
+    }
+
+    /// Copies a leaf's primitives (all of one kind) into the leaf arrays.
+    fn emit_leaf(&mut self, prims: &[u32]) -> ChildRef {
+        let tri_count = self.geometry.triangles.len() as u32;
+        if prims[0] >= tri_count {
+            let first = self.flat.spheres.len() as u32;
+            for &id in prims {
+                let s = (id - tri_count) as usize;
+                self.flat.spheres.push(PackedSphere {
+                    center: self.geometry.spheres.center[s],
+                    radius: self.geometry.spheres.radius[s],
+                    id,
+                });
+            }
+            ChildRef::leaf(true, first, prims.len() as u32)
+        } else {
+            let first = self.flat.tri_groups.len() as u32;
+            let groups = pack_triangles(prims, self.geometry);
+            let count = groups.len() as u32;
+            self.flat.tri_groups.extend(groups);
+            ChildRef::leaf(false, first, count)
+        }
+    }
+}
+
+/// Packs triangles `prims` into groups of [`WIDTH`].
+pub(crate) fn pack_triangles(prims: &[u32], geometry: &Geometry) -> Vec<TriGroup> {
+    prims
+        .chunks(WIDTH)
+        .map(|chunk| {
+            let tris: Vec<([Vec3; 3], u32)> = chunk
+                .iter()
+                .map(|&id| (geometry.triangles.vertices(id as usize), id))
+                .collect();
+            TriGroup::new(&tris)
+        })
+        .collect()
+}
+
+/// Bounds of a wide node's slot, for tests and statistics.
+#[allow(dead_code)]
+pub(crate) fn slot_bounds(node: &WideNode, slot: usize) -> Aabb {
+    let [lo, hi] = &node.bounds;
+    Aabb {
+        min: Vec3::new(
+            lo[0].to_array()[slot],
+            lo[1].to_array()[slot],
+            lo[2].to_array()[slot],
+        ),
+        max: Vec3::new(
+            hi[0].to_array()[slot],
+            hi[1].to_array()[slot],
+            hi[2].to_array()[slot],
+        ),
+    }
+}

@@ -1,0 +1,324 @@
+//! Bounding volume hierarchy: build, layout, traversal.
+//!
+//! [`Bvh::build`] turns a scene's [`Geometry`] into an acceleration
+//! structure that answers two batch queries: [`Bvh::intersect`] (closest
+//! hit) and [`Bvh::occluded`] (any hit). The pipeline is:
+//!
+//! * [`build`](self::build): a binary tree by binned SAH or midpoint split
+//!   over primitive bounds (triangles and spheres alike), parallel with rayon.
+//! * [`flatten`](self::flatten): collapse into [`WIDTH`]-wide nodes whose
+//!   child boxes are stored lane-wise, and copy the triangles, in leaf
+//!   order, into SIMD groups; the `Bvh` owns this copy and never looks at
+//!   the `Geometry` again.
+//! * [`traverse`](self::traverse): per-ray, nearest-child-first traversal
+//!   with a conservative slab test.
+//! * [`triangle`](self::triangle): watertight ray/triangle test, [`WIDTH`]
+//!   triangles at a time. [`sphere`](self::sphere): stable ray/sphere test.
+//!
+//! [`Accel::None`] skips the hierarchy and tests every primitive; it is the
+//! reference the others are checked against and the "before" of the
+//! before/after comparison.
+
+mod build;
+mod flatten;
+mod sphere;
+mod traverse;
+mod triangle;
+
+use std::fmt;
+use std::ops::AddAssign;
+use std::str::FromStr;
+
+use glam::Vec3;
+
+use crate::ray::{Hits, Rays};
+use crate::scene::{Aabb, Geometry, Spheres, Triangles};
+
+use build::BuildParams;
+use flatten::{ChildRef, WideNode};
+use sphere::PackedSphere;
+use triangle::TriGroup;
+
+/// SIMD register type of the node and triangle tests.
+pub(crate) type Lanes = wide::f32x8;
+/// Children per node and triangles per group: the lane count of [`Lanes`].
+pub const WIDTH: usize = 8;
+
+/// Which acceleration structure to build (`--accel sah|median|none`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Accel {
+    /// Binned surface area heuristic: the fast one.
+    #[default]
+    Sah,
+    /// Split at the midpoint of the longest centroid axis, leaves of ≤ 4.
+    Median,
+    /// No hierarchy: every ray tests every primitive.
+    None,
+}
+
+impl FromStr for Accel {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Accel, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "sah" => Ok(Accel::Sah),
+            "median" => Ok(Accel::Median),
+            "none" => Ok(Accel::None),
+            _ => Err(format!(
+                "unknown acceleration structure '{s}' (expected sah, median or none)"
+            )),
+        }
+    }
+}
+
+impl fmt::Display for Accel {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str(match self {
+            Accel::Sah => "sah",
+            Accel::Median => "median",
+            Accel::None => "none",
+        })
+    }
+}
+
+/// Traversal work counters, summed over rays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TraversalStats {
+    /// Rays queried.
+    pub rays: u64,
+    /// Interior (wide) nodes whose child boxes were tested.
+    pub nodes_visited: u64,
+    /// Primitives tested (padding lanes of triangle groups not counted).
+    pub primitives_tested: u64,
+}
+
+impl AddAssign for TraversalStats {
+    fn add_assign(&mut self, o: TraversalStats) {
+        self.rays += o.rays;
+        self.nodes_visited += o.nodes_visited;
+        self.primitives_tested += o.primitives_tested;
+    }
+}
+
+/// An acceleration structure over triangles and spheres.
+///
+/// Owns a copy of the primitive data in the layout traversal wants, so it
+/// does not borrow the scene. Queries take `&self` and touch no shared
+/// mutable state: one `Bvh` can serve many threads.
+pub struct Bvh {
+    accel: Accel,
+    nodes: Vec<WideNode>,
+    tri_groups: Vec<TriGroup>,
+    spheres: Vec<PackedSphere>,
+    root: Option<ChildRef>,
+    depth: usize,
+    triangle_count: usize,
+    sphere_count: usize,
+}
+
+impl Bvh {
+    /// Builds an acceleration structure over all primitives of `geometry`.
+    /// Hit ids are the global primitive ids of [`Geometry`].
+    pub fn build(geometry: &Geometry, accel: Accel) -> Bvh {
+        let tri_count = geometry.triangles.len();
+        let sphere_count = geometry.spheres.len();
+        let mut bvh = Bvh {
+            accel,
+            nodes: Vec::new(),
+            tri_groups: Vec::new(),
+            spheres: Vec::new(),
+            root: None,
+            depth: 0,
+            triangle_count: tri_count,
+            sphere_count,
+        };
+        if accel == Accel::None {
+            let ids: Vec<u32> = (0..tri_count as u32).collect();
+            bvh.tri_groups = flatten::pack_triangles(&ids, geometry);
+            bvh.spheres = (0..sphere_count)
+                .map(|i| PackedSphere {
+                    center: geometry.spheres.center[i],
+                    radius: geometry.spheres.radius[i],
+                    id: (tri_count + i) as u32,
+                })
+                .collect();
+            return bvh;
+        }
+
+        let bounds: Vec<Aabb> = {
+            use rayon::prelude::*;
+            (0..(tri_count + sphere_count) as u32)
+                .into_par_iter()
+                .map(|id| geometry.primitive_bounds(id))
+                .collect()
+        };
+        let params = match accel {
+            Accel::Sah => BuildParams {
+                sah: true,
+                bins: 16,
+                traversal_cost: 1.0,
+                lanes: 1,
+                max_leaf: 8,
+            },
+            _ => BuildParams {
+                sah: false,
+                bins: 0,
+                traversal_cost: 0.0,
+                lanes: 1,
+                max_leaf: 4,
+            },
+        };
+        let (root, order) = build::build(&bounds, tri_count as u32, params);
+        let flat = flatten::flatten(root.as_ref(), &order, geometry);
+        assert!(
+            flat.depth * (WIDTH - 1) < traverse::STACK_SIZE,
+            "BVH too deep for the traversal stack"
+        );
+        bvh.nodes = flat.nodes;
+        bvh.tri_groups = flat.tri_groups;
+        bvh.spheres = flat.spheres;
+        bvh.root = flat.root;
+        bvh.depth = flat.depth;
+        bvh
+    }
+
+    /// Builds over a bare indexed triangle list (ids are triangle indices).
+    pub fn from_triangle_soup(positions: &[Vec3], indices: &[[u32; 3]], accel: Accel) -> Bvh {
+        let geometry = Geometry {
+            triangles: Triangles {
+                positions: positions.to_vec(),
+                normals: Vec::new(),
+                indices: indices.to_vec(),
+                material: vec![0; indices.len()],
+                texcoords: Vec::new(),
+            },
+            spheres: Spheres::default(),
+        };
+        Bvh::build(&geometry, accel)
+    }
+
+    fn scene(&self) -> Option<traverse::Scene<'_>> {
+        self.root.map(|root| traverse::Scene {
+            nodes: &self.nodes,
+            tri_groups: &self.tri_groups,
+            spheres: &self.spheres,
+            root,
+        })
+    }
+
+    /// Closest hit for every ray of the batch. `hits` is reset to
+    /// `rays.len()` misses first; a hit stores `t`, the global primitive id
+    /// and, for triangles, the barycentric weights `u`, `v` of vertices 1
+    /// and 2.
+    ///
+    /// `cost`, when given (length ≥ `rays.len()`), receives per ray the
+    /// number of nodes visited plus primitives tested.
+    pub fn intersect(
+        &self,
+        rays: &Rays,
+        hits: &mut Hits,
+        stats: &mut TraversalStats,
+        mut cost: Option<&mut [u32]>,
+    ) {
+        let n = rays.len();
+        hits.reset(n);
+        let (mut nodes, mut prims) = (0u64, 0u64);
+        let scene = self.scene();
+        let mut stack = traverse::new_stack();
+        for i in 0..n {
+            let o = rays.origin(i);
+            let d = rays.direction(i);
+            let t_max = rays.t_max[i];
+            let mut work = traverse::Work::default();
+            let c = match (&scene, self.accel) {
+                (_, Accel::None) => {
+                    traverse::closest_brute(&self.tri_groups, &self.spheres, o, d, t_max, &mut work)
+                }
+                (Some(scene), _) => traverse::closest(scene, &mut stack, o, d, t_max, &mut work),
+                (None, _) => continue,
+            };
+            if c.prim != crate::ray::NO_HIT {
+                hits.t[i] = c.t;
+                hits.prim[i] = c.prim;
+                hits.u[i] = c.u;
+                hits.v[i] = c.v;
+            }
+            if let Some(cost) = cost.as_deref_mut() {
+                cost[i] = work.nodes + work.prims;
+            }
+            nodes += work.nodes as u64;
+            prims += work.prims as u64;
+        }
+        stats.rays += n as u64;
+        stats.nodes_visited += nodes;
+        stats.primitives_tested += prims;
+    }
+
+    /// Whether anything is hit in `[0, t_max]`, for every ray of the batch
+    /// (stops at the first hit found). `occluded` is resized to `rays.len()`.
+    pub fn occluded(&self, rays: &Rays, occluded: &mut Vec<bool>, stats: &mut TraversalStats) {
+        let n = rays.len();
+        occluded.clear();
+        occluded.resize(n, false);
+        let (mut nodes, mut prims) = (0u64, 0u64);
+        let scene = self.scene();
+        let mut stack = traverse::new_stack();
+        for (i, occluded) in occluded.iter_mut().enumerate() {
+            let o = rays.origin(i);
+            let d = rays.direction(i);
+            let t_max = rays.t_max[i];
+            let mut work = traverse::Work::default();
+            *occluded = match (&scene, self.accel) {
+                (_, Accel::None) => {
+                    traverse::any_brute(&self.tri_groups, &self.spheres, o, d, t_max, &mut work)
+                }
+                (Some(scene), _) => traverse::any(scene, &mut stack, o, d, t_max, &mut work),
+                (None, _) => false,
+            };
+            nodes += work.nodes as u64;
+            prims += work.prims as u64;
+        }
+        stats.rays += n as u64;
+        stats.nodes_visited += nodes;
+        stats.primitives_tested += prims;
+    }
+
+    /// Which structure this is.
+    pub fn accel(&self) -> Accel {
+        self.accel
+    }
+
+    /// Heap bytes owned: nodes plus the primitive copies.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.capacity() * std::mem::size_of::<WideNode>()
+            + self.tri_groups.capacity() * std::mem::size_of::<TriGroup>()
+            + self.spheres.capacity() * std::mem::size_of::<PackedSphere>()
+    }
+
+    /// Number of wide interior nodes.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Wide levels on the longest root-to-leaf path (0 without a hierarchy).
+    pub fn depth(&self) -> usize {
+        self.depth
+    }
+
+    /// Number of triangles plus spheres.
+    pub fn primitive_count(&self) -> usize {
+        self.triangle_count + self.sphere_count
+    }
+
+    /// Triangle groups of [`WIDTH`] lanes (≥ triangles / WIDTH; padding in
+    /// partly filled leaf groups is the difference).
+    pub fn triangle_group_count(&self) -> usize {
+        self.tri_groups.len()
+    }
+}
+
+// Queries share nothing mutable; this fails to compile if that changes.
+const _: () = {
+    const fn assert_send_sync<T: Send + Sync>() {}
+    assert_send_sync::<Bvh>();
+};

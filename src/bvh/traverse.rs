@@ -1,0 +1,360 @@
+//! Single-ray traversal of the wide BVH, applied ray by ray over a batch.
+//!
+//! Each ray walks the tree with a small fixed-size stack that lives for the
+//! whole batch (no allocation per ray). At every wide node all children's
+//! boxes are tested at once with a slab test; the children that are hit are
+//! visited nearest first, the rest pushed with their entry distance so that
+//! a closest-hit query can drop them once a nearer hit is known.
+//!
+//! # Robust slab test
+//!
+//! For an axis with inverse direction `inv`, the ray is between the two
+//! planes of a box for `t` between `(near − o)·inv` and `(far − o)·inv`,
+//! where "near" is the min plane if `inv ≥ 0` and the max plane otherwise.
+//! Choosing the planes by the sign of the direction, once per ray, instead
+//! of sorting the two distances per box, also makes the inverted boxes of
+//! empty slots (min = +∞, max = −∞) yield an empty interval.
+//!
+//! Rounding can make the computed exit distance slightly too small, so a
+//! ray grazing a box could miss a triangle lying on its face. Following Ize,
+//! "Robust BVH Ray Traversal" (JCGT 2013), the exit distance is multiplied
+//! by `1 + 2γ₃` (γₙ = nε/(1−nε)), which bounds the error of the subtraction
+//! and the multiplication.
+//!
+//! A zero direction component would give `inv = ±∞` and `0·∞ = NaN` when
+//! the origin lies on a slab plane; such components are replaced by a tiny
+//! value of the same sign, which gives the same answer everywhere else.
+
+use glam::Vec3;
+
+use super::flatten::{ChildRef, WideNode};
+use super::sphere::{PackedSphere, intersect_sphere};
+use super::triangle::{RayTri, TriGroup, intersect_group};
+use super::{Lanes, WIDTH};
+use crate::ray::NO_HIT;
+
+/// γ₃ = 3ε / (1 − 3ε) for f32 (ε = 2⁻²⁴, half an ULP of 1).
+const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::EPSILON * 0.5));
+
+/// Stack capacity: the builder bounds the binary depth to well under 96,
+/// and a wide level pushes at most `WIDTH − 1` entries.
+pub(crate) const STACK_SIZE: usize = 96 * (WIDTH - 1) + 1;
+
+/// What traversal reads: the flattened tree and its leaf arrays.
+pub(crate) struct Scene<'a> {
+    pub nodes: &'a [WideNode],
+    pub tri_groups: &'a [TriGroup],
+    pub spheres: &'a [PackedSphere],
+    pub root: ChildRef,
+}
+
+/// Per-ray constants of the slab test.
+struct RayBox {
+    o: [Lanes; 3],
+    inv: [Lanes; 3],
+    /// 0 if the direction along the axis is positive (enter at min), else 1.
+    near: [usize; 3],
+}
+
+impl RayBox {
+    #[inline(always)]
+    fn new(o: Vec3, d: Vec3) -> RayBox {
+        let inv = |x: f32| {
+            let x = if x == 0.0 { 1e-30f32.copysign(x) } else { x };
+            1.0 / x
+        };
+        let inv = [inv(d.x), inv(d.y), inv(d.z)];
+        RayBox {
+            o: [Lanes::splat(o.x), Lanes::splat(o.y), Lanes::splat(o.z)],
+            inv: inv.map(Lanes::splat),
+            near: inv.map(|i| if i >= 0.0 { 0 } else { 1 }),
+        }
+    }
+
+    /// Returns the mask of children hit within `[0, t_far]` and their entry distances.
+    #[inline(always)]
+    fn test(&self, node: &WideNode, t_far: f32) -> (u32, Lanes) {
+        let b = &node.bounds;
+        let mut t_enter = Lanes::ZERO;
+        let mut t_exit = Lanes::splat(f32::INFINITY);
+        #[allow(clippy::needless_range_loop)] // reads four arrays per axis
+        for axis in 0..3 {
+            let n = self.near[axis];
+            let t0 = (b[n][axis] - self.o[axis]) * self.inv[axis];
+            let t1 = (b[1 - n][axis] - self.o[axis]) * self.inv[axis];
+            t_enter = t_enter.fast_max(t0);
+            t_exit = t_exit.fast_min(t1);
+        }
+        let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(Lanes::splat(t_far));
+        (t_enter.simd_le(t_exit).to_bitmask(), t_enter)
+    }
+}
+
+/// Closest hit of one ray.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Closest {
+    pub t: f32,
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
+}
+
+/// Per-ray work counters.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Work {
+    pub nodes: u32,
+    pub prims: u32,
+}
+
+/// Traversal stack entry: a child and the distance at which the ray enters it.
+#[derive(Clone, Copy, Default)]
+pub(crate) struct Entry {
+    child: u32,
+    t: f32,
+}
+
+pub(crate) type Stack = [Entry; STACK_SIZE];
+
+pub(crate) fn new_stack() -> Stack {
+    [Entry::default(); STACK_SIZE]
+}
+
+/// Tests a ray against a triangle leaf, narrowing `best`.
+#[inline(always)]
+fn leaf_triangles(
+    groups: &[TriGroup],
+    tri: &RayTri,
+    best: &mut Closest,
+    work: &mut Work,
+    count_work: bool,
+) {
+    for g in groups {
+        if count_work {
+            work.prims += g.len();
+        }
+        let h = intersect_group(g, tri, best.t);
+        let mut mask = h.mask;
+        if mask == 0 {
+            continue;
+        }
+        let t = h.t.to_array();
+        while mask != 0 {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            if t[lane] <= best.t {
+                let det = h.det.to_array()[lane];
+                *best = Closest {
+                    t: t[lane],
+                    prim: g.id[lane],
+                    u: h.v.to_array()[lane] / det,
+                    v: h.w.to_array()[lane] / det,
+                };
+            }
+        }
+    }
+}
+
+#[inline(always)]
+fn leaf_spheres(spheres: &[PackedSphere], o: Vec3, d: Vec3, best: &mut Closest, work: &mut Work) {
+    for s in spheres {
+        work.prims += 1;
+        if let Some(t) = intersect_sphere(s, o, d, best.t) {
+            *best = Closest {
+                t,
+                prim: s.id,
+                u: 0.0,
+                v: 0.0,
+            };
+        }
+    }
+}
+
+/// Closest hit along `o + t·d`, `t ∈ [0, t_max]`.
+#[inline]
+pub(crate) fn closest(
+    scene: &Scene,
+    stack: &mut Stack,
+    o: Vec3,
+    d: Vec3,
+    t_max: f32,
+    work: &mut Work,
+) -> Closest {
+    let mut best = Closest {
+        t: t_max,
+        prim: NO_HIT,
+        u: 0.0,
+        v: 0.0,
+    };
+    if d == Vec3::ZERO || t_max.is_nan() || t_max < 0.0 {
+        return best;
+    }
+    let rb = RayBox::new(o, d);
+    let tri = RayTri::new(o, d);
+    let mut sp = 0usize;
+    let mut current = scene.root;
+    loop {
+        if !current.is_leaf() {
+            let node = &scene.nodes[current.index()];
+            work.nodes += 1;
+            let (mut mask, t_enter) = rb.test(node, best.t);
+            if mask != 0 {
+                // Order hit children by entry distance (insertion sort on at
+                // most WIDTH entries), continue with the nearest, push the rest
+                // far-to-near.
+                let t_enter = t_enter.to_array();
+                let mut hits = [Entry::default(); WIDTH];
+                let mut n = 0;
+                while mask != 0 {
+                    let slot = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let e = Entry {
+                        child: node.child[slot].0,
+                        t: t_enter[slot],
+                    };
+                    let mut j = n;
+                    while j > 0 && hits[j - 1].t < e.t {
+                        hits[j] = hits[j - 1];
+                        j -= 1;
+                    }
+                    hits[j] = e;
+                    n += 1;
+                }
+                // hits is sorted far..near; push all but the last (nearest).
+                stack[sp..sp + n - 1].copy_from_slice(&hits[..n - 1]);
+                sp += n - 1;
+                current = ChildRef(hits[n - 1].child);
+                continue;
+            }
+        } else {
+            let (first, count) = (current.index(), current.count());
+            if current.is_sphere() {
+                leaf_spheres(&scene.spheres[first..first + count], o, d, &mut best, work);
+            } else {
+                leaf_triangles(
+                    &scene.tri_groups[first..first + count],
+                    &tri,
+                    &mut best,
+                    work,
+                    true,
+                );
+            }
+        }
+        // Pop the next child that is not farther than the nearest hit so far.
+        loop {
+            if sp == 0 {
+                return best;
+            }
+            sp -= 1;
+            let e = stack[sp];
+            if e.t <= best.t {
+                current = ChildRef(e.child);
+                break;
+            }
+        }
+    }
+}
+
+/// Whether anything is hit along `o + t·d`, `t ∈ [0, t_max]`.
+#[inline]
+pub(crate) fn any(
+    scene: &Scene,
+    stack: &mut Stack,
+    o: Vec3,
+    d: Vec3,
+    t_max: f32,
+    work: &mut Work,
+) -> bool {
+    if d == Vec3::ZERO || t_max.is_nan() || t_max < 0.0 {
+        return false;
+    }
+    let rb = RayBox::new(o, d);
+    let tri = RayTri::new(o, d);
+    let mut sp = 0usize;
+    stack[0].child = scene.root.0;
+    sp += 1;
+    while sp > 0 {
+        sp -= 1;
+        let current = ChildRef(stack[sp].child);
+        if !current.is_leaf() {
+            let node = &scene.nodes[current.index()];
+            work.nodes += 1;
+            let (mut mask, _) = rb.test(node, t_max);
+            while mask != 0 {
+                let slot = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                stack[sp].child = node.child[slot].0;
+                sp += 1;
+            }
+        } else {
+            let (first, count) = (current.index(), current.count());
+            if current.is_sphere() {
+                for s in &scene.spheres[first..first + count] {
+                    work.prims += 1;
+                    if intersect_sphere(s, o, d, t_max).is_some() {
+                        return true;
+                    }
+                }
+            } else {
+                for g in &scene.tri_groups[first..first + count] {
+                    work.prims += g.len();
+                    if intersect_group(g, &tri, t_max).mask != 0 {
+                        return true;
+                    }
+                }
+            }
+        }
+    }
+    false
+}
+
+/// Brute force closest hit: every primitive, no hierarchy.
+pub(crate) fn closest_brute(
+    groups: &[TriGroup],
+    spheres: &[PackedSphere],
+    o: Vec3,
+    d: Vec3,
+    t_max: f32,
+    work: &mut Work,
+) -> Closest {
+    let mut best = Closest {
+        t: t_max,
+        prim: NO_HIT,
+        u: 0.0,
+        v: 0.0,
+    };
+    if d == Vec3::ZERO || t_max.is_nan() || t_max < 0.0 {
+        return best;
+    }
+    let tri = RayTri::new(o, d);
+    leaf_triangles(groups, &tri, &mut best, work, true);
+    leaf_spheres(spheres, o, d, &mut best, work);
+    best
+}
+
+/// Brute force any hit.
+pub(crate) fn any_brute(
+    groups: &[TriGroup],
+    spheres: &[PackedSphere],
+    o: Vec3,
+    d: Vec3,
+    t_max: f32,
+    work: &mut Work,
+) -> bool {
+    if d == Vec3::ZERO || t_max.is_nan() || t_max < 0.0 {
+        return false;
+    }
+    let tri = RayTri::new(o, d);
+    for g in groups {
+        work.prims += g.len();
+        if intersect_group(g, &tri, t_max).mask != 0 {
+            return true;
+        }
+    }
+    for s in spheres {
+        work.prims += 1;
+        if intersect_sphere(s, o, d, t_max).is_some() {
+            return true;
+        }
+    }
+    false
+}

@@ -1,0 +1,204 @@
+//! Watertight ray/triangle intersection, [`WIDTH`] triangles at a time.
+//!
+//! This is the algorithm of Woop, Benthin and Wald, "Watertight Ray/Triangle
+//! Intersection" (JCGT 2013). The ray is turned into the +z axis of a sheared
+//! coordinate system (per-ray constants, computed once in [`RayTri::new`]),
+//! which reduces the inside test to the signs of three 2D edge functions
+//!
+//! ```text
+//! U = Cx·By − Cy·Bx,   V = Ax·Cy − Ay·Cx,   W = Bx·Ay − By·Ax
+//! ```
+//!
+//! of the transformed vertices. An edge shared by two triangles produces
+//! the same value with opposite sign in both (floating-point subtraction is
+//! antisymmetric and both evaluate the same products), so a ray can never
+//! slip through the crack between them: at least one of the two sees all
+//! three signs agree. When an edge function rounds to exactly zero, it is
+//! recomputed in double precision, where the products are exact.
+//!
+//! No fused multiply-add may be used in the edge functions: `fma(a, b, −cd)`
+//! is not the negation of `fma(c, d, −ab)`, which would break the symmetry.
+//! Rust never contracts `a * b - c * d` on its own, so the plain operators
+//! below are exactly what the proof needs.
+//!
+//! Triangles are stored as [`TriGroup`]s: the three vertices of [`WIDTH`]
+//! triangles, one SIMD register per vertex coordinate, so a group test is a
+//! straight run of vector arithmetic with no gathers.
+
+use glam::Vec3;
+
+use super::{Lanes, WIDTH};
+use crate::ray::NO_HIT;
+
+/// [`WIDTH`] triangles, structure of arrays. Unused lanes have NaN vertices
+/// (every comparison fails, so they never hit) and id [`NO_HIT`].
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(crate) struct TriGroup {
+    /// `v[vertex][axis]`, one lane per triangle.
+    pub v: [[Lanes; 3]; 3],
+    /// Global primitive id per lane.
+    pub id: [u32; WIDTH],
+}
+
+impl TriGroup {
+    pub fn new(tris: &[([Vec3; 3], u32)]) -> TriGroup {
+        debug_assert!(tris.len() <= WIDTH);
+        let mut v = [[[f32::NAN; WIDTH]; 3]; 3];
+        let mut id = [NO_HIT; WIDTH];
+        for (lane, (verts, prim)) in tris.iter().enumerate() {
+            for (k, p) in verts.iter().enumerate() {
+                v[k][0][lane] = p.x;
+                v[k][1][lane] = p.y;
+                v[k][2][lane] = p.z;
+            }
+            id[lane] = *prim;
+        }
+        TriGroup {
+            v: v.map(|vertex| vertex.map(Lanes::from)),
+            id,
+        }
+    }
+
+    /// Number of real (non-padding) triangles.
+    #[inline]
+    pub fn len(&self) -> u32 {
+        self.id.iter().filter(|&&id| id != NO_HIT).count() as u32
+    }
+}
+
+/// Per-ray constants of the watertight test.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RayTri {
+    /// Axis along which the direction is largest (`kz`) and the other two,
+    /// ordered so the transformed triangle keeps its winding.
+    pub k: [usize; 3],
+    /// Shear `(dx/dz, dy/dz)` and scale `1/dz` in the permuted frame.
+    pub s: [f32; 3],
+    /// Origin in the permuted frame.
+    pub o: [f32; 3],
+}
+
+impl RayTri {
+    /// Precomputes the shear for direction `d` (non-zero) from origin `o`.
+    #[inline]
+    pub fn new(o: Vec3, d: Vec3) -> RayTri {
+        let a = d.abs();
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        RayTri {
+            k: [kx, ky, kz],
+            s: [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]],
+            o: [o[kx], o[ky], o[kz]],
+        }
+    }
+}
+
+/// Result of a group test: which lanes hit within `[0, t_far]`, and their
+/// `t` and barycentric numerators/denominator.
+pub(crate) struct GroupHit {
+    pub mask: u32,
+    pub t: Lanes,
+    pub v: Lanes,
+    pub w: Lanes,
+    pub det: Lanes,
+}
+
+/// Tests the ray against all triangles of `g`. A lane hits if the ray
+/// crosses its triangle at `t` in `[0, t_far]`.
+#[inline(always)]
+pub(crate) fn intersect_group(g: &TriGroup, r: &RayTri, t_far: f32) -> GroupHit {
+    let [kx, ky, kz] = r.k;
+    let (ox, oy, oz) = (
+        Lanes::splat(r.o[0]),
+        Lanes::splat(r.o[1]),
+        Lanes::splat(r.o[2]),
+    );
+    let (sx, sy, sz) = (
+        Lanes::splat(r.s[0]),
+        Lanes::splat(r.s[1]),
+        Lanes::splat(r.s[2]),
+    );
+
+    // Vertices relative to the origin, then sheared so the ray is +z.
+    let az = g.v[0][kz] - oz;
+    let bz = g.v[1][kz] - oz;
+    let cz = g.v[2][kz] - oz;
+    let ax = (g.v[0][kx] - ox) - sx * az;
+    let ay = (g.v[0][ky] - oy) - sy * az;
+    let bx = (g.v[1][kx] - ox) - sx * bz;
+    let by = (g.v[1][ky] - oy) - sy * bz;
+    let cx = (g.v[2][kx] - ox) - sx * cz;
+    let cy = (g.v[2][ky] - oy) - sy * cz;
+
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+
+    // Exact zeros: the ray passes (numerically) through an edge or vertex.
+    // Redo those lanes in double precision, where the products are exact.
+    let zero = Lanes::ZERO;
+    let any_zero = (u.simd_eq(zero) | v.simd_eq(zero) | w.simd_eq(zero)).to_bitmask();
+    if any_zero != 0 {
+        refine_edges_f64(
+            any_zero,
+            [ax, ay, bx, by, cx, cy].map(Lanes::to_array),
+            &mut u,
+            &mut v,
+            &mut w,
+        );
+    }
+
+    // Inside iff the three edge functions do not disagree in sign
+    // (both orientations accepted: no back-face culling).
+    let neg = u.simd_lt(zero) | v.simd_lt(zero) | w.simd_lt(zero);
+    let pos = u.simd_gt(zero) | v.simd_gt(zero) | w.simd_gt(zero);
+    let det = u + v + w;
+    let t_num = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
+    let t = t_num / det;
+    let ok = !(neg & pos) & det.simd_ne(zero) & t.simd_ge(zero) & t.simd_le(Lanes::splat(t_far));
+    GroupHit {
+        mask: ok.to_bitmask(),
+        t,
+        v,
+        w,
+        det,
+    }
+}
+
+/// Recomputes the edge functions of the lanes in `lanes` in f64.
+#[cold]
+#[inline(never)]
+fn refine_edges_f64(lanes: u32, p: [[f32; WIDTH]; 6], u: &mut Lanes, v: &mut Lanes, w: &mut Lanes) {
+    let (mut uu, mut vv, mut ww) = (u.to_array(), v.to_array(), w.to_array());
+    let [ax, ay, bx, by, cx, cy] = p;
+    let mut bits = lanes;
+    while bits != 0 {
+        let i = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        let (ax, ay, bx, by, cx, cy) = (
+            ax[i] as f64,
+            ay[i] as f64,
+            bx[i] as f64,
+            by[i] as f64,
+            cx[i] as f64,
+            cy[i] as f64,
+        );
+        uu[i] = (cx * by - cy * bx) as f32;
+        vv[i] = (ax * cy - ay * cx) as f32;
+        ww[i] = (bx * ay - by * ax) as f32;
+    }
+    *u = Lanes::from(uu);
+    *v = Lanes::from(vv);
+    *w = Lanes::from(ww);
+}

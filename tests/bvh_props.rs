@@ -1,0 +1,275 @@
+//! Property tests: every acceleration structure answers exactly like brute force.
+//!
+//! `Accel::None` tests every primitive, so it is the reference. For a
+//! closest-hit query the structures must report the same primitive at the
+//! same `t`; when two primitives are hit at the same `t` (a ray through a
+//! shared edge or vertex) either may be reported, as long as `t` agrees.
+
+use std::path::Path;
+
+use glam::Vec3;
+use proptest::prelude::*;
+use wavepath::bvh::{Accel, Bvh, TraversalStats};
+use wavepath::ray::{Hits, NO_HIT, Rays};
+use wavepath::scene::{Geometry, Spheres, Triangles};
+
+const ACCELS: [Accel; 2] = [Accel::Sah, Accel::Median];
+
+fn geometry(positions: Vec<Vec3>, indices: Vec<[u32; 3]>, spheres: Vec<(Vec3, f32)>) -> Geometry {
+    let n = indices.len();
+    Geometry {
+        triangles: Triangles {
+            positions,
+            normals: Vec::new(),
+            indices,
+            material: vec![0; n],
+            texcoords: Vec::new(),
+        },
+        spheres: Spheres {
+            center: spheres.iter().map(|s| s.0).collect(),
+            radius: spheres.iter().map(|s| s.1).collect(),
+            material: vec![0; spheres.len()],
+        },
+    }
+}
+
+fn close(a: f32, b: f32) -> bool {
+    (a - b).abs() <= 1e-5 * a.abs().max(b.abs()).max(1e-3)
+}
+
+/// Checks `accel` against brute force on `rays`; returns a description of
+/// the first disagreement.
+fn compare(geometry: &Geometry, rays: &Rays) -> Result<usize, String> {
+    let reference = Bvh::build(geometry, Accel::None);
+    let mut expected = Hits::default();
+    let mut stats = TraversalStats::default();
+    reference.intersect(rays, &mut expected, &mut stats, None);
+    let mut expected_occ = Vec::new();
+    reference.occluded(rays, &mut expected_occ, &mut stats);
+    for accel in ACCELS {
+        let bvh = Bvh::build(geometry, accel);
+        let mut hits = Hits::default();
+        let mut cost = vec![0u32; rays.len()];
+        bvh.intersect(rays, &mut hits, &mut stats, Some(&mut cost));
+        let mut occ = Vec::new();
+        bvh.occluded(rays, &mut occ, &mut stats);
+        for i in 0..rays.len() {
+            let (ep, gp) = (expected.prim[i], hits.prim[i]);
+            let ok = if ep == NO_HIT || gp == NO_HIT {
+                ep == gp
+            } else {
+                close(expected.t[i], hits.t[i])
+                    && (ep == gp || expected.t[i] == hits.t[i] || close(expected.t[i], hits.t[i]))
+            };
+            if !ok {
+                return Err(format!(
+                    "{accel}: ray {i} ({:?} + t {:?}, t_max {}): expected prim {ep} t {}, got prim {gp} t {}",
+                    rays.origin(i),
+                    rays.direction(i),
+                    rays.t_max[i],
+                    expected.t[i],
+                    hits.t[i]
+                ));
+            }
+            if ep != NO_HIT
+                && ep == gp
+                && (expected.u[i] != hits.u[i] || expected.v[i] != hits.v[i])
+            {
+                let du = (expected.u[i] - hits.u[i]).abs() + (expected.v[i] - hits.v[i]).abs();
+                if du > 1e-4 {
+                    return Err(format!("{accel}: ray {i}: barycentrics differ"));
+                }
+            }
+            if occ[i] != expected_occ[i] {
+                return Err(format!(
+                    "{accel}: ray {i}: occluded {} expected {}",
+                    occ[i], expected_occ[i]
+                ));
+            }
+            if occ[i] != (ep != NO_HIT) {
+                return Err(format!(
+                    "{accel}: ray {i}: occluded disagrees with intersect"
+                ));
+            }
+        }
+    }
+    Ok(expected.prim.iter().filter(|&&p| p != NO_HIT).count())
+}
+
+fn vec3(range: std::ops::Range<f32>) -> impl Strategy<Value = Vec3> {
+    (range.clone(), range.clone(), range).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+}
+
+fn rays_strategy(n: usize, extent: f32) -> impl Strategy<Value = Rays> {
+    proptest::collection::vec(
+        (
+            vec3(-extent..extent),
+            vec3(-1.0..1.0),
+            prop_oneof![Just(f32::INFINITY), 0.0f32..3.0 * extent],
+        ),
+        n,
+    )
+    .prop_map(|v| {
+        let mut rays = Rays::with_capacity(v.len());
+        for (o, d, t) in v {
+            rays.push(o, d, t);
+        }
+        rays
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_soup(
+        tris in proptest::collection::vec((vec3(-1.0..1.0), vec3(-0.3..0.3), vec3(-0.3..0.3)), 1..400),
+        rays in rays_strategy(256, 1.5),
+    ) {
+        let mut positions = Vec::new();
+        let mut indices = Vec::new();
+        for (a, e1, e2) in tris {
+            let k = positions.len() as u32;
+            positions.extend([a, a + e1, a + e2]);
+            indices.push([k, k + 1, k + 2]);
+        }
+        let g = geometry(positions, indices, Vec::new());
+        compare(&g, &rays).map_err(TestCaseError::fail)?;
+    }
+
+    #[test]
+    fn random_spheres_and_triangles(
+        spheres in proptest::collection::vec((vec3(-1.0..1.0), 0.01f32..0.4), 1..60),
+        tris in proptest::collection::vec((vec3(-1.0..1.0), vec3(-0.3..0.3), vec3(-0.3..0.3)), 0..60),
+        rays in rays_strategy(256, 1.5),
+    ) {
+        let mut positions = Vec::new();
+        let mut indices = Vec::new();
+        for (a, e1, e2) in tris {
+            let k = positions.len() as u32;
+            positions.extend([a, a + e1, a + e2]);
+            indices.push([k, k + 1, k + 2]);
+        }
+        let g = geometry(positions, indices, spheres);
+        compare(&g, &rays).map_err(TestCaseError::fail)?;
+    }
+
+    #[test]
+    fn grid_mesh_with_shared_edges(
+        n in 2usize..40,
+        rays in rays_strategy(512, 1.5),
+    ) {
+        // A bumpy height field: many shared edges and vertices.
+        let mut positions = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, z) = (i as f32 / n as f32 * 2.0 - 1.0, j as f32 / n as f32 * 2.0 - 1.0);
+                positions.push(Vec3::new(x, 0.2 * (3.0 * x).sin() * (2.0 * z).cos(), z));
+            }
+        }
+        let mut indices = Vec::new();
+        let idx = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+        for j in 0..n {
+            for i in 0..n {
+                indices.push([idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)]);
+                indices.push([idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)]);
+            }
+        }
+        let g = geometry(positions, indices, Vec::new());
+        let hits = compare(&g, &rays).map_err(TestCaseError::fail)?;
+        prop_assert!(hits > 0);
+    }
+}
+
+#[test]
+fn degenerate_inputs() {
+    // Empty scene, zero directions, many identical triangles.
+    let empty = geometry(Vec::new(), Vec::new(), Vec::new());
+    let mut rays = Rays::default();
+    rays.push(Vec3::ZERO, Vec3::X, f32::INFINITY);
+    rays.push(Vec3::ZERO, Vec3::ZERO, f32::INFINITY);
+    compare(&empty, &rays).unwrap();
+
+    let positions = vec![
+        Vec3::new(-1.0, -1.0, 1.0),
+        Vec3::new(1.0, -1.0, 1.0),
+        Vec3::new(0.0, 1.0, 1.0),
+    ];
+    let g = geometry(positions, vec![[0, 1, 2]; 1000], Vec::new());
+    rays.push(Vec3::ZERO, Vec3::Z, f32::INFINITY);
+    rays.push(Vec3::ZERO, Vec3::Z, 0.5);
+    rays.push(Vec3::ZERO, Vec3::Z, 1.0);
+    compare(&g, &rays).unwrap();
+    for accel in [Accel::Sah, Accel::Median, Accel::None] {
+        let bvh = Bvh::build(&g, accel);
+        let mut hits = Hits::default();
+        bvh.intersect(&rays, &mut hits, &mut TraversalStats::default(), None);
+        assert_eq!(hits.prim[1], NO_HIT, "zero direction never hits");
+        assert!(hits.is_hit(2) && hits.t[2] == 1.0);
+        assert!(!hits.is_hit(3));
+        assert!(hits.is_hit(4), "t == t_max counts as a hit");
+        assert!((hits.u[2] - 0.25).abs() < 1e-6 && (hits.v[2] - 0.5).abs() < 1e-6);
+    }
+}
+
+/// Small deterministic generator (xorshift32) for the real-mesh rays.
+struct Rng(u32);
+
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 17;
+        self.0 ^= self.0 << 5;
+        (self.0 >> 8) as f32 / (1u32 << 24) as f32
+    }
+    fn vec3(&mut self) -> Vec3 {
+        Vec3::new(self.next(), self.next(), self.next())
+    }
+}
+
+/// Real meshes from the CS184 scene collection, when present: camera rays
+/// plus random rays starting inside the scene bounds.
+#[test]
+fn real_meshes() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/cs184");
+    if !dir.is_dir() {
+        println!("skipping real_meshes: {} not found", dir.display());
+        return;
+    }
+    for name in [
+        "sky/CBbunny.dae",
+        "sky/CBspheres.dae",
+        "meshedit/cow.dae",
+        "keenan/banana.dae",
+    ] {
+        let path = dir.join(name);
+        let scene = match wavepath::scene::collada::load_file(&path) {
+            Ok(s) => s,
+            Err(e) => panic!("loading {}: {e}", path.display()),
+        };
+        let bounds = scene.geometry.bounds();
+        let mut rng = Rng(0x9e37_79b9);
+        let mut rays = Rays::default();
+        let view = scene.camera.view(64, 48);
+        for y in 0..48 {
+            for x in 0..64 {
+                let d = scene
+                    .camera
+                    .direction(&view, x as f32 + 0.5, y as f32 + 0.5);
+                rays.push(scene.camera.position, d, f32::INFINITY);
+            }
+        }
+        for _ in 0..1000 {
+            let o = bounds.min + rng.vec3() * bounds.diagonal();
+            let d = rng.vec3() * 2.0 - Vec3::ONE;
+            let t_max = if rng.next() < 0.5 {
+                f32::INFINITY
+            } else {
+                rng.next() * bounds.diagonal().length()
+            };
+            rays.push(o, d, t_max);
+        }
+        let hits = compare(&scene.geometry, &rays).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(hits > 0, "{name}: no hits at all");
+    }
+}
