@@ -6,6 +6,10 @@
 //! accumulates and writes the image.
 
 pub mod bvh;
+pub mod cli;
 pub mod film;
+pub mod integrator;
 pub mod ray;
+pub mod sampling;
 pub mod scene;
+pub mod wavefront;

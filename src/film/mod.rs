@@ -1,1 +1,137 @@
-//! Film: accumulation and image output.
+//! Film: per-pixel accumulation, the adaptive-sampling mask, and image output.
+//!
+//! The film is written tile by tile: each render task owns a [`TileFilm`]
+//! and hands it back when done, so accumulation needs no locks.
+
+pub mod adaptive;
+pub mod output;
+
+use glam::Vec3;
+
+/// A rectangle of pixels, in image coordinates (row 0 at the top).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Tile {
+    pub x0: u32,
+    pub y0: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Tile {
+    pub fn pixel_count(&self) -> usize {
+        (self.width * self.height) as usize
+    }
+
+    /// Splits a `width × height` image into tiles of at most `size × size`, row-major.
+    pub fn grid(width: u32, height: u32, size: u32) -> Vec<Tile> {
+        let mut tiles = Vec::new();
+        for y0 in (0..height).step_by(size as usize) {
+            for x0 in (0..width).step_by(size as usize) {
+                tiles.push(Tile {
+                    x0,
+                    y0,
+                    width: size.min(width - x0),
+                    height: size.min(height - y0),
+                });
+            }
+        }
+        tiles
+    }
+}
+
+/// Per-pixel statistics of one tile.
+#[derive(Clone, Debug)]
+pub struct TileFilm {
+    pub tile: Tile,
+    /// Sum of the radiance samples.
+    pub sum: Vec<Vec3>,
+    /// Number of samples taken.
+    pub count: Vec<u32>,
+    /// Sums of the samples' illuminance and of its square (adaptive sampling).
+    pub illum_sum: Vec<f64>,
+    pub illum_sq_sum: Vec<f64>,
+    /// Extra per-pixel value some views report (e.g. BVH traversal cost).
+    pub aux: Vec<f32>,
+}
+
+impl TileFilm {
+    pub fn new(tile: Tile) -> Self {
+        let n = tile.pixel_count();
+        TileFilm {
+            tile,
+            sum: vec![Vec3::ZERO; n],
+            count: vec![0; n],
+            illum_sum: vec![0.0; n],
+            illum_sq_sum: vec![0.0; n],
+            aux: vec![0.0; n],
+        }
+    }
+
+    /// Adds one radiance sample to local pixel `i`.
+    #[inline]
+    pub fn add(&mut self, i: usize, radiance: Vec3) {
+        let x = illuminance(radiance) as f64;
+        self.sum[i] += radiance;
+        self.count[i] += 1;
+        self.illum_sum[i] += x;
+        self.illum_sq_sum[i] += x * x;
+    }
+}
+
+/// Photometric luminance of linear Rec.709 RGB.
+#[inline]
+pub fn illuminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+/// The finished image: mean radiance per pixel plus per-pixel sample counts.
+#[derive(Clone, Debug)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    /// Linear RGB, row-major, row 0 at the top.
+    pub pixels: Vec<Vec3>,
+    pub samples: Vec<u32>,
+    pub aux: Vec<f32>,
+}
+
+impl Image {
+    pub fn new(width: u32, height: u32) -> Self {
+        let n = (width * height) as usize;
+        Image {
+            width,
+            height,
+            pixels: vec![Vec3::ZERO; n],
+            samples: vec![0; n],
+            aux: vec![0.0; n],
+        }
+    }
+
+    /// Copies a finished tile in, dividing sums by sample counts.
+    pub fn store(&mut self, film: &TileFilm) {
+        let t = film.tile;
+        for ty in 0..t.height {
+            for tx in 0..t.width {
+                let local = (ty * t.width + tx) as usize;
+                let global = ((t.y0 + ty) * self.width + t.x0 + tx) as usize;
+                let n = film.count[local];
+                self.pixels[global] = if n > 0 {
+                    film.sum[local] / n as f32
+                } else {
+                    Vec3::ZERO
+                };
+                self.samples[global] = n;
+                self.aux[global] = film.aux[local];
+            }
+        }
+    }
+
+    /// Number of pixels with a NaN or infinite component.
+    pub fn non_finite_count(&self) -> usize {
+        self.pixels.iter().filter(|p| !p.is_finite()).count()
+    }
+
+    pub fn at(&self, x: u32, y: u32) -> Vec3 {
+        self.pixels[(y * self.width + x) as usize]
+    }
+}

@@ -1,0 +1,217 @@
+//! The `wavepath` command: parse flags, load, build, render, write.
+
+mod args;
+mod report;
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use clap::{CommandFactory, Parser};
+use indicatif::{ProgressBar, ProgressStyle};
+
+pub use args::Args;
+
+use crate::bvh::Bvh;
+use crate::film::adaptive::Adaptive;
+use crate::film::output;
+use crate::integrator::{Settings, View};
+use crate::scene::collada;
+use crate::wavefront::{RenderSettings, Renderer};
+
+/// Exit status after Ctrl-C (128 + SIGINT), as shells expect.
+pub const EXIT_INTERRUPTED: i32 = 130;
+
+/// Checks what clap cannot: cross-field and float-valued flags.
+/// Exits with a usage hint on nonsense, like clap's own errors.
+fn validate(args: &Args) -> (RenderSettings, PathBuf) {
+    let fail = |msg: String| -> ! {
+        Args::command()
+            .error(clap::error::ErrorKind::ValueValidation, msg)
+            .exit()
+    };
+    let adaptive = if args.no_adaptive {
+        None
+    } else {
+        let spb: u32 = args.adaptive[0].parse().unwrap_or_else(|_| {
+            fail(format!(
+                "-a: samples per batch must be a positive integer, got '{}'",
+                args.adaptive[0]
+            ))
+        });
+        let tol: f32 = args.adaptive[1].parse().unwrap_or_else(|_| {
+            fail(format!(
+                "-a: tolerance must be a number, got '{}'",
+                args.adaptive[1]
+            ))
+        });
+        if spb == 0 {
+            fail("-a: samples per batch must be at least 1".into());
+        }
+        if !(tol >= 0.0 && tol.is_finite()) {
+            fail(format!(
+                "-a: tolerance must be a non-negative number, got '{}'",
+                args.adaptive[1]
+            ));
+        }
+        // Tolerance 0 can never be met: that is fixed sampling.
+        (tol > 0.0).then_some(Adaptive {
+            samples_per_batch: spb,
+            tolerance: tol,
+        })
+    };
+    if !(args.lens_radius >= 0.0 && args.lens_radius.is_finite()) {
+        fail(format!(
+            "-b: lens radius must be a non-negative number, got {}",
+            args.lens_radius
+        ));
+    }
+    if !(args.focal_distance > 0.0 && args.focal_distance.is_finite()) {
+        fail(format!(
+            "-d: focal distance must be a positive number, got {}",
+            args.focal_distance
+        ));
+    }
+    if let Some(c) = &args.camera {
+        fail(format!(
+            "-c {}: camera settings files are not supported",
+            c.display()
+        ));
+    }
+    if let Some(e) = &args.envmap {
+        fail(format!(
+            "-e {}: environment maps are not supported yet",
+            e.display()
+        ));
+    }
+    let output = args.output.clone().unwrap_or_else(|| {
+        let stem = args
+            .scene
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("out");
+        PathBuf::from(format!("{stem}.png"))
+    });
+    if let Err(e) = output::Format::from_path(&output) {
+        fail(e.to_string());
+    }
+    let settings = RenderSettings {
+        width: args.resolution[0],
+        height: args.resolution[1],
+        spp: args.spp,
+        // Views that are not estimates have nothing to converge.
+        adaptive: adaptive.filter(|_| args.shading == View::Path && args.spp > 1),
+        seed: args.seed,
+        batch_size: args.batch_size as usize,
+        tile_size: 16,
+        lens_radius: args.lens_radius,
+        focal_distance: args.focal_distance,
+        integrator: Settings {
+            view: args.shading,
+            max_depth: args.max_depth,
+            light_samples: args.light_samples,
+            hemisphere: args.hemisphere,
+            bounces: args.bounces,
+            russian_roulette: !args.no_roulette,
+        },
+    };
+    (settings, output)
+}
+
+/// Runs the command; returns the process exit status.
+pub fn run() -> Result<i32> {
+    let args = Args::parse();
+    let (settings, output_path) = validate(&args);
+    let chatty = !args.quiet;
+
+    let threads = args.threads.map_or_else(
+        || std::thread::available_parallelism().map_or(1, |n| n.get()),
+        |t| t as usize,
+    );
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("cannot start worker threads")?;
+
+    let t = Instant::now();
+    let scene = collada::load_file(&args.scene)?;
+    let load_time = t.elapsed();
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+
+    let t = Instant::now();
+    let bvh = pool.install(|| Bvh::build(&scene.geometry, args.accel));
+    let build_time = t.elapsed();
+
+    let renderer = Renderer::new(&scene, &bvh);
+    if settings.integrator.view == View::Path {
+        for w in &renderer.warnings {
+            eprintln!("warning: {w}");
+        }
+        if renderer.lights.is_empty() && settings.integrator.max_depth > 0 {
+            eprintln!(
+                "warning: {}: the scene has no lights; only emission seen directly will show",
+                args.scene.display()
+            );
+        }
+    }
+
+    // Ctrl-C stops the render between passes; what is done is still written.
+    let cancel = Arc::new(AtomicBool::new(false));
+    {
+        let cancel = Arc::clone(&cancel);
+        // Failing to install the handler only loses partial output on Ctrl-C.
+        let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::Relaxed));
+    }
+
+    let total_pixels = settings.width as u64 * settings.height as u64;
+    let bar = if chatty && std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new(total_pixels);
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {wide_bar} {percent}% ETA {eta}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let t = Instant::now();
+    let on_tile = |pixels: u64| bar.inc(pixels);
+    let result = pool.install(|| renderer.render(&settings, &on_tile, &cancel));
+    let render_time = t.elapsed();
+    bar.finish_and_clear();
+
+    let with_rate = settings.adaptive.is_some();
+    output::write_image(&result.image, &output_path, args.tonemap, with_rate)?;
+    if with_rate {
+        output::write_rate_png(&result.image, &output::rate_path(&output_path))?;
+    }
+
+    if chatty {
+        report::timings(
+            &output_path,
+            load_time,
+            build_time,
+            render_time,
+            &result,
+            threads,
+        );
+    }
+    if args.stats {
+        report::stats(&scene, &bvh, &result.stats, render_time, threads);
+    }
+    if !result.complete {
+        eprintln!(
+            "interrupted: wrote the part rendered so far to {}",
+            output_path.display()
+        );
+        return Ok(EXIT_INTERRUPTED);
+    }
+    Ok(0)
+}

@@ -1,0 +1,236 @@
+//! Light sampling for next-event estimation.
+//!
+//! Every emitter becomes a [`LightSource`] that can draw a point or
+//! direction as seen from a shading point and report the incident radiance
+//! divided by the solid-angle pdf of that choice. Emissive meshes are one
+//! source per scene, their triangles chosen in proportion to area.
+
+use glam::Vec3;
+
+use super::bsdf::Surface;
+use crate::ray::offset_origin;
+use crate::sampling::warp;
+use crate::scene::{Light, Scene};
+
+/// A sampled connection from a shading point to a light.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unnormalised direction from the (offset) origin to the light.
+    pub direction: Vec3,
+    /// Extent of the shadow ray along `direction`.
+    pub t_max: f32,
+    /// Incident radiance divided by the solid-angle pdf.
+    pub weight: Vec3,
+}
+
+#[derive(Clone, Debug)]
+pub enum LightSource {
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+    },
+    Directional {
+        to_light: Vec3,
+        radiance: Vec3,
+    },
+    Rectangle {
+        center: Vec3,
+        normal: Vec3,
+        dim_x: Vec3,
+        dim_y: Vec3,
+        radiance: Vec3,
+    },
+    Hemisphere {
+        radiance: Vec3,
+    },
+    /// Two-sided emissive triangles, sampled by area.
+    Mesh {
+        /// Vertex positions per triangle.
+        triangles: Vec<[Vec3; 3]>,
+        radiance: Vec<Vec3>,
+        /// Cumulative area, normalised to end at 1.
+        cdf: Vec<f32>,
+        total_area: f32,
+    },
+}
+
+impl LightSource {
+    /// Whether a single sample is exact (delta lights need only one).
+    pub fn is_delta(&self) -> bool {
+        matches!(
+            self,
+            LightSource::Point { .. } | LightSource::Directional { .. }
+        )
+    }
+
+    /// Draws a connection from `p` (already offset off its surface) with
+    /// random numbers `(u, v)` and, for meshes, `w` to pick a triangle.
+    /// `None` when the light cannot reach `p`.
+    pub fn sample(&self, p: Vec3, n: Vec3, u: f32, v: f32, w: f32) -> Option<LightSample> {
+        match self {
+            LightSource::Point {
+                position,
+                intensity,
+            } => {
+                let d = *position - p;
+                let dist2 = d.length_squared();
+                (dist2 > 0.0).then(|| LightSample {
+                    direction: d,
+                    t_max: 1.0,
+                    weight: *intensity / dist2,
+                })
+            }
+            LightSource::Directional { to_light, radiance } => Some(LightSample {
+                direction: *to_light,
+                t_max: f32::INFINITY,
+                weight: *radiance,
+            }),
+            LightSource::Rectangle {
+                center,
+                normal,
+                dim_x,
+                dim_y,
+                radiance,
+            } => {
+                let q = *center + (u - 0.5) * *dim_x + (v - 0.5) * *dim_y;
+                let area = dim_x.length() * dim_y.length();
+                // One-sided: light leaves toward `normal` only.
+                let cos_light = normal.dot((p - q).normalize_or_zero());
+                if cos_light <= 0.0 {
+                    return None;
+                }
+                Some(connect(p, q, *normal, cos_light, area, *radiance))
+            }
+            LightSource::Hemisphere { radiance } => {
+                // Cosine-weighted about the surface normal; only upward directions see the sky.
+                let d = warp::to_world(warp::cosine_hemisphere(u, v), n);
+                let cos = d.dot(n);
+                if d.y <= 0.0 || cos <= 0.0 {
+                    return None;
+                }
+                Some(LightSample {
+                    direction: d,
+                    t_max: f32::INFINITY,
+                    weight: *radiance * (std::f32::consts::PI / cos),
+                })
+            }
+            LightSource::Mesh {
+                triangles,
+                radiance,
+                cdf,
+                total_area,
+            } => {
+                let i = cdf.partition_point(|&c| c <= w).min(triangles.len() - 1);
+                let [a, b, c] = triangles[i];
+                // Uniform point on the triangle (square-root warp).
+                let su = u.sqrt();
+                let q = a * (1.0 - su) + b * (su * (1.0 - v)) + c * (su * v);
+                let ng = (b - a).cross(c - a).normalize_or_zero();
+                let cos_light = ng.dot((p - q).normalize_or_zero()).abs();
+                if cos_light <= 0.0 {
+                    return None;
+                }
+                let facing = if ng.dot(p - q) >= 0.0 { ng } else { -ng };
+                Some(connect(p, q, facing, cos_light, *total_area, radiance[i]))
+            }
+        }
+    }
+}
+
+/// A connection to point `q` on an area emitter whose normal `n_light`
+/// faces `p`: pdf in solid angle = d² / (area · cos θ_light).
+fn connect(
+    p: Vec3,
+    q: Vec3,
+    n_light: Vec3,
+    cos_light: f32,
+    area: f32,
+    radiance: Vec3,
+) -> LightSample {
+    // End the shadow ray just in front of the emitter so it cannot hit it.
+    let end = offset_origin(q, n_light);
+    let d = q - p;
+    let pdf = d.length_squared() / (area * cos_light);
+    LightSample {
+        direction: end - p,
+        t_max: 1.0,
+        weight: radiance / pdf,
+    }
+}
+
+/// Every light source of a scene.
+#[derive(Clone, Debug, Default)]
+pub struct LightSet {
+    pub sources: Vec<LightSource>,
+    /// Summed radiance of hemisphere lights, seen by rays that escape upward.
+    pub sky: Vec3,
+}
+
+impl LightSet {
+    pub fn new(scene: &Scene, surfaces: &[Surface]) -> LightSet {
+        let mut set = LightSet::default();
+        for light in &scene.lights {
+            set.sources.push(match *light {
+                Light::Point {
+                    position,
+                    intensity,
+                } => LightSource::Point {
+                    position,
+                    intensity,
+                },
+                Light::Directional { to_light, radiance } => {
+                    LightSource::Directional { to_light, radiance }
+                }
+                Light::Area {
+                    center,
+                    normal,
+                    dim_x,
+                    dim_y,
+                    radiance,
+                } => LightSource::Rectangle {
+                    center,
+                    normal,
+                    dim_x,
+                    dim_y,
+                    radiance,
+                },
+                Light::Hemisphere { radiance } => {
+                    set.sky += radiance;
+                    LightSource::Hemisphere { radiance }
+                }
+            });
+        }
+        // Emissive meshes (area-light rectangles are sampled as rectangles above).
+        let tris = &scene.geometry.triangles;
+        let (mut triangles, mut radiance, mut cdf) = (Vec::new(), Vec::new(), Vec::new());
+        let mut total = 0.0f64;
+        for t in 0..tris.len() {
+            if let Surface::Emitter {
+                radiance: le,
+                one_sided: false,
+            } = surfaces[tris.material[t] as usize]
+            {
+                let area = 0.5 * tris.geometric_normal(t).length() as f64;
+                if area > 0.0 && le.max_element() > 0.0 {
+                    total += area;
+                    triangles.push(tris.vertices(t));
+                    radiance.push(le);
+                    cdf.push(total);
+                }
+            }
+        }
+        if !triangles.is_empty() {
+            set.sources.push(LightSource::Mesh {
+                triangles,
+                radiance,
+                cdf: cdf.iter().map(|&c| (c / total) as f32).collect(),
+                total_area: total as f32,
+            });
+        }
+        set
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.sources.is_empty()
+    }
+}

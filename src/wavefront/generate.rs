@@ -1,0 +1,97 @@
+//! Stage 1: camera rays for the pixels still in the mask.
+//!
+//! A pass gives every active pixel of a tile the same number of new
+//! samples; the pass's work items are numbered pixel-major, and each item
+//! owns one result slot. Waves take items in order until full.
+
+use crate::film::Tile;
+use crate::sampling::{SampleStream, warp};
+use crate::scene::{Camera, CameraView};
+
+use super::paths::Paths;
+
+/// The camera samples of one pass over one tile.
+pub struct PassQueue<'a> {
+    pub tile: Tile,
+    /// Local indices of the pixels still sampled.
+    pub active: &'a [u32],
+    /// Samples each active pixel takes in this pass.
+    pub samples_per_pixel: u32,
+    /// Sample index of each pixel's first sample in this pass.
+    pub first_sample: u32,
+    /// Next work item.
+    pub next: usize,
+}
+
+impl PassQueue<'_> {
+    pub fn len(&self) -> usize {
+        self.active.len() * self.samples_per_pixel as usize
+    }
+
+    pub fn is_done(&self) -> bool {
+        self.next >= self.len()
+    }
+}
+
+/// Everything needed to turn (pixel, sample) into a camera ray.
+pub struct CameraRays<'a> {
+    pub camera: &'a Camera,
+    pub view: CameraView,
+    pub seed: u32,
+    /// With one sample per pixel the ray goes through the pixel centre.
+    pub pixel_centre: bool,
+    /// Thin lens: aperture radius (0 = pinhole) and distance of the plane in focus.
+    pub lens_radius: f32,
+    pub focal_distance: f32,
+}
+
+/// Fills `paths` up to `capacity` with new camera paths from `queue`.
+/// Returns how many were generated.
+pub fn refill(
+    paths: &mut Paths,
+    capacity: usize,
+    queue: &mut PassQueue,
+    cam: &CameraRays,
+) -> usize {
+    let room = capacity.saturating_sub(paths.len());
+    let take = room.min(queue.len() - queue.next.min(queue.len()));
+    let spp = queue.samples_per_pixel as usize;
+    let (width, height) = (cam.view.width, cam.view.height);
+    for item in queue.next..queue.next + take {
+        let local = queue.active[item / spp];
+        let sample = queue.first_sample + (item % spp) as u32;
+        let tx = local % queue.tile.width;
+        let ty = local / queue.tile.width;
+        let x = queue.tile.x0 + tx;
+        let row = queue.tile.y0 + ty;
+        let pixel_id = row * width + x;
+        let mut stream = SampleStream::new(cam.seed, pixel_id, sample);
+        let (u, v) = if cam.pixel_centre {
+            (0.5, 0.5)
+        } else {
+            stream.pixel_offset()
+        };
+        // Film rows run top-down; the camera's y = 0 is the bottom row.
+        let y = height - 1 - row;
+        let dir = cam.camera.direction(&cam.view, x as f32 + u, y as f32 + v);
+        // Start at the near plane along the view axis: t ∈ [znear, zfar] for a
+        // direction whose camera-space z is −1.
+        let (origin, dir) = if cam.lens_radius > 0.0 {
+            // Thin lens: aim from a point on the aperture at where the
+            // pinhole ray meets the plane in focus (camera-space z = −d).
+            let focus = cam.camera.position + cam.focal_distance * dir;
+            let (lu, lv) = stream.next_2d();
+            let disk = warp::concentric_disk(lu, lv) * cam.lens_radius;
+            let lens = cam.camera.position
+                + cam.camera.camera_to_world * glam::Vec3::new(disk.x, disk.y, 0.0);
+            (lens, (focus - lens) / cam.focal_distance)
+        } else {
+            (cam.camera.position, dir)
+        };
+        let origin = origin + cam.camera.znear * dir;
+        let t_max = cam.camera.zfar - cam.camera.znear;
+        paths.push(item as u32, stream, origin, dir, t_max);
+    }
+    queue.next += take;
+    take
+}

@@ -1,0 +1,293 @@
+//! The wavefront renderer: ray batches moving through separate stages.
+//!
+//! The image is cut into tiles, one rayon task each. A task samples its
+//! tile in passes; each pass gives every pixel still in the adaptive mask
+//! the same number of new samples, run as waves of paths:
+//!
+//! generate → intersect → shade → shadow-test → compact (→ refill)
+//!
+//! Every path's result lands in its own slot; at the end of a pass the
+//! slots are summed into the film in sample order. The image is therefore
+//! a pure function of the seed: thread count, batch size and scheduling
+//! cannot change a bit of it.
+
+pub mod compact;
+pub mod generate;
+pub mod paths;
+pub mod shade;
+pub mod shadow;
+pub mod stats;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::bvh::Bvh;
+use crate::film::adaptive::{Adaptive, converged};
+use crate::film::{Image, Tile, TileFilm};
+use crate::integrator::bsdf::{self, Surface};
+use crate::integrator::lights::LightSet;
+use crate::integrator::{Settings, View};
+use crate::ray::Hits;
+use crate::scene::Scene;
+
+use generate::{CameraRays, PassQueue};
+use paths::{Paths, ShadowRays};
+pub use stats::{Stage, Stats};
+
+/// Largest pass when sampling is not adaptive (bounds the slot buffer).
+const MAX_PASS: u32 = 64;
+
+/// What to render and how.
+#[derive(Clone, Copy, Debug)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Camera samples per pixel (the maximum when adaptive).
+    pub spp: u32,
+    pub adaptive: Option<Adaptive>,
+    pub seed: u32,
+    /// Paths per wave.
+    pub batch_size: usize,
+    /// Tile edge in pixels.
+    pub tile_size: u32,
+    /// Thin-lens aperture radius (0 = pinhole) and focal distance.
+    pub lens_radius: f32,
+    pub focal_distance: f32,
+    pub integrator: Settings,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            width: 800,
+            height: 600,
+            spp: 1,
+            adaptive: None,
+            seed: 0,
+            batch_size: 4096,
+            tile_size: 16,
+            lens_radius: 0.0,
+            focal_distance: 4.7,
+            integrator: Settings::default(),
+        }
+    }
+}
+
+/// The scene prepared for rendering: everything the stages read.
+pub struct Renderer<'a> {
+    pub scene: &'a Scene,
+    pub bvh: &'a Bvh,
+    pub surfaces: Vec<Surface>,
+    pub lights: LightSet,
+    /// Problems worth telling the user once (fallback materials, no lights).
+    pub warnings: Vec<String>,
+}
+
+/// A finished (or interrupted) render.
+pub struct RenderOutput {
+    pub image: Image,
+    pub stats: Stats,
+    /// False when cancelled before every tile was done.
+    pub complete: bool,
+}
+
+impl<'a> Renderer<'a> {
+    pub fn new(scene: &'a Scene, bvh: &'a Bvh) -> Self {
+        let mut warnings = Vec::new();
+        let surfaces = bsdf::prepare(&scene.materials, &mut warnings);
+        let lights = LightSet::new(scene, &surfaces);
+        Renderer {
+            scene,
+            bvh,
+            surfaces,
+            lights,
+            warnings,
+        }
+    }
+
+    /// Renders on the current rayon pool. `on_tile` is called after each
+    /// tile with its pixel count; `cancel` stops the render between passes.
+    pub fn render(
+        &self,
+        settings: &RenderSettings,
+        on_tile: &(dyn Fn(u64) + Sync),
+        cancel: &AtomicBool,
+    ) -> RenderOutput {
+        let tiles = Tile::grid(settings.width, settings.height, settings.tile_size);
+        let results: Vec<(TileFilm, Stats, bool)> = tiles
+            .par_iter()
+            .map(|&tile| {
+                let out = self.render_tile(settings, tile, cancel);
+                on_tile(tile.pixel_count() as u64);
+                out
+            })
+            .collect();
+        let mut image = Image::new(settings.width, settings.height);
+        let mut stats = Stats::default();
+        let mut complete = true;
+        for (film, s, done) in &results {
+            image.store(film);
+            stats += *s;
+            complete &= *done;
+        }
+        if settings.integrator.view == View::BvhCost {
+            // The film holds the mean traversal steps per pixel: map to a heat scale.
+            let max = image
+                .pixels
+                .iter()
+                .map(|p| p.x)
+                .fold(0.0f32, f32::max)
+                .max(1.0);
+            for p in &mut image.pixels {
+                p.x /= max;
+                *p = crate::film::output::rate_colour(p.x);
+            }
+        }
+        RenderOutput {
+            image,
+            stats,
+            complete,
+        }
+    }
+
+    fn render_tile(
+        &self,
+        settings: &RenderSettings,
+        tile: Tile,
+        cancel: &AtomicBool,
+    ) -> (TileFilm, Stats, bool) {
+        let mut film = TileFilm::new(tile);
+        let mut stats = Stats::default();
+        let view = self.scene.camera.view(settings.width, settings.height);
+        let cam = CameraRays {
+            camera: &self.scene.camera,
+            view,
+            seed: settings.seed,
+            pixel_centre: settings.spp == 1,
+            lens_radius: settings.lens_radius,
+            focal_distance: settings.focal_distance,
+        };
+        let integrator = &settings.integrator;
+        let inputs = shade::ShadeInputs {
+            geometry: &self.scene.geometry,
+            surfaces: &self.surfaces,
+            lights: &self.lights,
+            settings: integrator,
+        };
+        let capacity = settings.batch_size.max(1);
+        let mut paths = Paths::with_capacity(capacity);
+        let mut hits = Hits::default();
+        let mut shadow = ShadowRays::default();
+        let mut probes = ShadowRays::default();
+        let mut probe_hits = Hits::default();
+        let mut occluded = Vec::new();
+        let mut cost = vec![0u32; capacity];
+        let mut slots: Vec<Vec3> = Vec::new();
+        let mut active: Vec<u32> = (0..tile.pixel_count() as u32).collect();
+        let pass_size = settings
+            .adaptive
+            .map_or(MAX_PASS, |a| a.samples_per_batch)
+            .max(1);
+        let mut taken = 0;
+        let want_cost = integrator.view == View::BvhCost;
+
+        while taken < settings.spp && !active.is_empty() {
+            if cancel.load(Ordering::Relaxed) {
+                return (film, stats, false);
+            }
+            let n_pass = pass_size.min(settings.spp - taken);
+            slots.clear();
+            slots.resize(active.len() * n_pass as usize, Vec3::ZERO);
+            let mut queue = PassQueue {
+                tile,
+                active: &active,
+                samples_per_pixel: n_pass,
+                first_sample: taken,
+                next: 0,
+            };
+            loop {
+                let t = Instant::now();
+                let generated = generate::refill(&mut paths, capacity, &mut queue, &cam);
+                stats.generate.record(generated, t);
+                if paths.is_empty() {
+                    break;
+                }
+
+                let t = Instant::now();
+                let cost_out = want_cost.then(|| &mut cost[..paths.len()]);
+                self.bvh
+                    .intersect(&paths.rays, &mut hits, &mut stats.traversal, cost_out);
+                stats.intersect.record(paths.len(), t);
+                if want_cost {
+                    for (r, &c) in paths.radiance.iter_mut().zip(&cost) {
+                        *r = Vec3::splat(c as f32);
+                    }
+                }
+
+                let t = Instant::now();
+                shadow.clear();
+                probes.clear();
+                shade::shade(&inputs, &hits, &mut paths, &mut shadow, &mut probes);
+                stats.shade.record(paths.len(), t);
+
+                if !shadow.is_empty() {
+                    let t = Instant::now();
+                    shadow::resolve_shadow_rays(
+                        self.bvh,
+                        &shadow,
+                        &mut occluded,
+                        &mut paths,
+                        &mut stats.traversal,
+                    );
+                    stats.shadow.record(shadow.len(), t);
+                }
+                if !probes.is_empty() {
+                    let t = Instant::now();
+                    shadow::resolve_probe_rays(
+                        self.bvh,
+                        &probes,
+                        &mut probe_hits,
+                        &self.scene.geometry,
+                        &self.surfaces,
+                        self.lights.sky,
+                        &mut paths,
+                        &mut stats.traversal,
+                    );
+                    stats.probe.record(probes.len(), t);
+                }
+
+                let t = Instant::now();
+                let before = paths.len();
+                compact::compact(&mut paths, &mut slots);
+                stats.compact.record(before, t);
+            }
+
+            // Sum the pass into the film in sample order, then update the mask.
+            let t = Instant::now();
+            for (a, &pixel) in active.iter().enumerate() {
+                let base = a * n_pass as usize;
+                for &radiance in &slots[base..base + n_pass as usize] {
+                    film.add(pixel as usize, radiance);
+                }
+            }
+            taken += n_pass;
+            if let Some(adaptive) = settings.adaptive {
+                active.retain(|&p| {
+                    let p = p as usize;
+                    !converged(
+                        film.count[p],
+                        film.illum_sum[p],
+                        film.illum_sq_sum[p],
+                        adaptive.tolerance,
+                    )
+                });
+            }
+            stats.film.record(slots.len(), t);
+        }
+        stats.samples += film.count.iter().map(|&n| n as u64).sum::<u64>();
+        (film, stats, true)
+    }
+}

@@ -1,0 +1,250 @@
+//! Stage 3: shading. For every path that hit something: add emission,
+//! draw light samples into shadow rays, sample the BSDF for the next ray,
+//! and decide by Russian roulette whether the path goes on.
+//!
+//! Bounce accounting follows the reference: light found at path vertex `d`
+//! (0 = the camera ray's hit) by emission has bounced `d` times; light
+//! brought by next-event estimation at vertex `d` has bounced `d + 1` times.
+
+use glam::Vec3;
+
+use crate::integrator::bsdf::Surface;
+use crate::integrator::lights::LightSet;
+use crate::integrator::{Settings, View};
+use crate::ray::{Hits, offset_origin};
+use crate::sampling::warp;
+use crate::scene::{Geometry, Primitive};
+
+use super::paths::{Paths, ShadowRays};
+
+/// What the shade stage reads besides the paths.
+pub struct ShadeInputs<'a> {
+    pub geometry: &'a Geometry,
+    pub surfaces: &'a [Surface],
+    pub lights: &'a LightSet,
+    pub settings: &'a Settings,
+}
+
+/// Where a ray hit, with normals oriented toward the side it came from.
+struct SurfacePoint {
+    p: Vec3,
+    /// Geometric normal on the incoming side (unit).
+    ng: Vec3,
+    /// Shading normal, flipped into the same hemisphere as `ng` (unit).
+    ns: Vec3,
+    /// Whether the ray hit the front (the side the geometric normal points to).
+    front: bool,
+}
+
+fn surface_point(
+    geometry: &Geometry,
+    prim: u32,
+    u: f32,
+    v: f32,
+    origin: Vec3,
+    dir: Vec3,
+    t: f32,
+) -> SurfacePoint {
+    let (p, ng, ns) = match geometry.primitive(prim) {
+        Primitive::Triangle(i) => {
+            let tris = &geometry.triangles;
+            let [a, b, c] = tris.vertices(i);
+            // Barycentric reconstruction is more accurate than o + t·d.
+            let p = (1.0 - u - v) * a + u * b + v * c;
+            let ng = (b - a).cross(c - a).normalize_or(Vec3::Y);
+            (p, ng, tris.shading_normal(i, u, v))
+        }
+        Primitive::Sphere(i) => {
+            let s = &geometry.spheres;
+            let (c, r) = (s.center[i], s.radius[i]);
+            let n = (origin + t * dir - c).normalize_or(Vec3::Y);
+            // Reproject onto the sphere to cancel the error of o + t·d.
+            (c + r * n, n, n)
+        }
+    };
+    let front = ng.dot(dir) < 0.0;
+    let ng = if front { ng } else { -ng };
+    let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
+    SurfacePoint { p, ng, ns, front }
+}
+
+/// Shades every path of the wave. Paths that missed or ended are marked
+/// not alive; live ones get their next ray.
+pub fn shade(
+    inputs: &ShadeInputs,
+    hits: &Hits,
+    paths: &mut Paths,
+    shadow: &mut ShadowRays,
+    probes: &mut ShadowRays,
+) {
+    let settings = inputs.settings;
+    for i in 0..paths.len() {
+        let dir = paths.rays.direction(i);
+        if !hits.is_hit(i) {
+            on_miss(inputs, paths, i, dir);
+            paths.alive[i] = false;
+            continue;
+        }
+        let origin = paths.rays.origin(i);
+        let sp = surface_point(
+            inputs.geometry,
+            hits.prim[i],
+            hits.u[i],
+            hits.v[i],
+            origin,
+            dir,
+            hits.t[i],
+        );
+
+        match settings.view {
+            View::Normals => {
+                // The normal facing the viewer: outward on closed meshes, and
+                // into the room for the Cornell boxes' walls, as the
+                // reference shows them.
+                paths.radiance[i] = 0.5 * (sp.ns + Vec3::ONE);
+                paths.alive[i] = false;
+                continue;
+            }
+            View::BvhCost => {
+                paths.alive[i] = false;
+                continue;
+            }
+            View::Path => {}
+        }
+
+        let depth = paths.depth[i];
+        let surface = inputs.surfaces[inputs.geometry.material(hits.prim[i]) as usize];
+        match surface {
+            Surface::Emitter {
+                radiance,
+                one_sided,
+            } => {
+                let seen = !one_sided || sp.front;
+                if seen && (depth == 0 || paths.specular[i]) && settings.counts_bounce(depth) {
+                    paths.radiance[i] += paths.throughput[i] * radiance;
+                }
+                paths.alive[i] = false;
+            }
+            Surface::Diffuse { albedo } => {
+                let f = surface.f();
+                let p_out = offset_origin(sp.p, sp.ng);
+                if depth < settings.max_depth && settings.counts_bounce(depth + 1) {
+                    let beta = paths.throughput[i] * f;
+                    if settings.hemisphere {
+                        direct_hemisphere(inputs, paths, i, p_out, sp.ns, beta, probes);
+                    } else {
+                        direct_lights(inputs, paths, i, p_out, sp.ns, beta, shadow);
+                    }
+                }
+                paths.alive[i] = depth + 1 < settings.max_depth
+                    && continue_path(settings, paths, i, p_out, sp.ns, albedo);
+            }
+        }
+    }
+}
+
+/// A ray that left the scene: only the sky (hemisphere lights) can be seen,
+/// and only by rays that were not camera rays.
+fn on_miss(inputs: &ShadeInputs, paths: &mut Paths, i: usize, dir: Vec3) {
+    let depth = paths.depth[i];
+    let settings = inputs.settings;
+    if settings.view == View::Path
+        && paths.specular[i]
+        && depth > 0
+        && dir.y > 0.0
+        && settings.counts_bounce(depth)
+    {
+        paths.radiance[i] += paths.throughput[i] * inputs.lights.sky;
+    }
+}
+
+/// Next-event estimation: `-l` samples per area-like light, one per delta light.
+fn direct_lights(
+    inputs: &ShadeInputs,
+    paths: &mut Paths,
+    i: usize,
+    p: Vec3,
+    n: Vec3,
+    beta: Vec3,
+    shadow: &mut ShadowRays,
+) {
+    for light in &inputs.lights.sources {
+        let count = if light.is_delta() {
+            1
+        } else {
+            inputs.settings.light_samples
+        };
+        let inv_count = 1.0 / count as f32;
+        for _ in 0..count {
+            let (u, v) = paths.stream[i].next_2d();
+            let w = paths.stream[i].next();
+            let Some(s) = light.sample(p, n, u, v, w) else {
+                continue;
+            };
+            let cos = n.dot(s.direction.normalize_or_zero());
+            if cos <= 0.0 {
+                continue;
+            }
+            let contribution = beta * s.weight * (cos * inv_count);
+            if contribution.max_element() > 0.0 {
+                shadow.push(i, p, s.direction, s.t_max, contribution);
+            }
+        }
+    }
+}
+
+/// Direct lighting by uniform hemisphere sampling (`-H`): probe rays that
+/// count the emission they find. N = lights × `-l` directions, pdf = 1/2π.
+fn direct_hemisphere(
+    inputs: &ShadeInputs,
+    paths: &mut Paths,
+    i: usize,
+    p: Vec3,
+    n: Vec3,
+    beta: Vec3,
+    probes: &mut ShadowRays,
+) {
+    let count = inputs.lights.sources.len().max(1) as u32 * inputs.settings.light_samples;
+    let scale = 2.0 * std::f32::consts::PI / count as f32;
+    for _ in 0..count {
+        let (u, v) = paths.stream[i].next_2d();
+        let local = warp::uniform_hemisphere(u, v);
+        let d = warp::to_world(local, n);
+        probes.push(i, p, d, f32::INFINITY, beta * (local.z * scale));
+    }
+}
+
+/// Samples the next direction (cosine-weighted: the Lambertian weight
+/// f·cos/pdf is the albedo) and plays Russian roulette. Returns whether the
+/// path survives.
+///
+/// Roulette: from the second bounce on, a path continues with probability
+/// q = min(1, max component of its throughput) and survivors divide their
+/// throughput by q, so the expected contribution is unchanged.
+fn continue_path(
+    settings: &Settings,
+    paths: &mut Paths,
+    i: usize,
+    p: Vec3,
+    n: Vec3,
+    albedo: Vec3,
+) -> bool {
+    let mut throughput = paths.throughput[i] * albedo;
+    if settings.russian_roulette && paths.depth[i] >= 1 {
+        let q = throughput.max_element().min(1.0);
+        if paths.stream[i].next() >= q {
+            return false;
+        }
+        throughput /= q;
+    }
+    if throughput.max_element() <= 0.0 || !throughput.is_finite() {
+        return false;
+    }
+    let (u, v) = paths.stream[i].next_2d();
+    let d = warp::to_world(warp::cosine_hemisphere(u, v), n);
+    paths.throughput[i] = throughput;
+    paths.depth[i] += 1;
+    paths.specular[i] = false;
+    paths.set_ray(i, p, d, f32::INFINITY);
+    true
+}
