@@ -16,8 +16,8 @@ use crate::integrator::{Bounces, View};
     after_help = "Example: wavepath -s 64 -l 4 -m 5 -r 480 360 -f cbox.png scenes/cornell.dae"
 )]
 pub struct Args {
-    /// Scene file (.dae)
-    pub scene: PathBuf,
+    /// Scene file (.dae) [default: the built-in Cornell box, scenes/cornell.dae]
+    pub scene: Option<PathBuf>,
 
     /// Camera rays per pixel (the maximum when sampling adaptively)
     #[arg(short = 's', long = "spp", value_name = "N", default_value_t = 1,
@@ -52,7 +52,8 @@ pub struct Args {
     /// Adaptive sampling: test convergence every SAMPLES_PER_BATCH samples; a pixel stops
     /// when its 95% confidence interval is within TOLERANCE of its mean
     #[arg(short = 'a', long = "adaptive", num_args = 2,
-          value_names = ["SAMPLES_PER_BATCH", "TOLERANCE"], default_values = ["32", "0.05"])]
+          value_names = ["SAMPLES_PER_BATCH", "TOLERANCE"], default_values = ["32", "0.05"],
+          allow_negative_numbers = true)]
     pub adaptive: Vec<String>,
 
     /// Take exactly --spp samples in every pixel (no adaptive sampling)

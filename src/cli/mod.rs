@@ -22,8 +22,19 @@ use crate::integrator::{Settings, View};
 use crate::scene::collada;
 use crate::wavefront::{RenderSettings, Renderer};
 
+/// The scene rendered when none is named: `scenes/cornell.dae`, built in.
+const DEFAULT_SCENE: &str = include_str!("../../scenes/cornell.dae");
+const DEFAULT_SCENE_NAME: &str = "cornell.dae";
+
 /// Exit status after Ctrl-C (128 + SIGINT), as shells expect.
 pub const EXIT_INTERRUPTED: i32 = 130;
+
+/// The scene's path, or the built-in scene's name.
+fn scene_path(args: &Args) -> &std::path::Path {
+    args.scene
+        .as_deref()
+        .unwrap_or(std::path::Path::new(DEFAULT_SCENE_NAME))
+}
 
 /// Checks what clap cannot: cross-field and float-valued flags.
 /// Exits with a usage hint on nonsense, like clap's own errors.
@@ -88,8 +99,7 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
         ));
     }
     let output = args.output.clone().unwrap_or_else(|| {
-        let stem = args
-            .scene
+        let stem = scene_path(args)
             .file_stem()
             .and_then(|s| s.to_str())
             .unwrap_or("out");
@@ -137,7 +147,11 @@ pub fn run() -> Result<i32> {
         .context("cannot start worker threads")?;
 
     let t = Instant::now();
-    let scene = collada::load_file(&args.scene)?;
+    let scene = match &args.scene {
+        Some(path) => collada::load_file(path)?,
+        None => collada::load_str(DEFAULT_SCENE, std::path::Path::new(DEFAULT_SCENE_NAME))?,
+    };
+    let scene_name = scene_path(&args);
     let load_time = t.elapsed();
     for w in &scene.warnings {
         eprintln!("warning: {w}");
@@ -155,7 +169,7 @@ pub fn run() -> Result<i32> {
         if renderer.lights.is_empty() && settings.integrator.max_depth > 0 {
             eprintln!(
                 "warning: {}: the scene has no lights; only emission seen directly will show",
-                args.scene.display()
+                scene_name.display()
             );
         }
     }
