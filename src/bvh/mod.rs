@@ -157,7 +157,7 @@ impl Bvh {
                 sah: true,
                 bins: 16,
                 traversal_cost: 1.0,
-                lanes: 1,
+                lanes: WIDTH,
                 max_leaf: 8,
             },
             _ => BuildParams {

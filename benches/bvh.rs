@@ -1,0 +1,776 @@
+//! BVH benchmarks: build time and trace throughput, optionally side by side
+//! with Embree 3 on the very same rays.
+//!
+//! ```text
+//! cargo bench --bench bvh                          # wavepath only
+//! cargo bench --bench bvh --features embree        # + Embree (apt-get install libembree-dev)
+//! BVH_BENCH_SCENES=CBbunny,maxplanck cargo bench --bench bvh --features embree
+//! BVH_BENCH_SCALING=1 cargo bench --bench bvh -- scaling   # 1k..4M triangle sweep
+//! ```
+//!
+//! Scenes: CBbunny, maxplanck and building from `../shared/scenes/cs184`
+//! (skipped with a message when absent) and procedural bumpy spheres of ~1M
+//! and ~4M triangles. Per scene, three ray sets of up to 1024×768 rays:
+//!
+//! * `primary`: one ray per pixel centre from the scene camera;
+//! * `diffuse`: cosine-distributed bounces from the primary hits;
+//! * `shadow`: from the primary hits to random points on the first area
+//!   light (or a point above the scene), any-hit queries.
+//!
+//! Each set is traced in batches of 4096 rays, one batch per rayon task, on
+//! a 1-thread pool and on the default (all cores) pool. Throughput is
+//! reported by criterion in elements (rays) per second.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use criterion::{BenchmarkId, Criterion, Throughput};
+use glam::Vec3;
+use rayon::prelude::*;
+use wavepath::bvh::{Accel, Bvh, TraversalStats};
+use wavepath::ray::{Hits, NO_HIT, Rays, offset_origin};
+use wavepath::scene::{Camera, Geometry, Light, Perspective, Spheres, Triangles};
+
+const WIDTH: u32 = 1024;
+const HEIGHT: u32 = 768;
+const BATCH: usize = 4096;
+
+/// A scene prepared for tracing.
+struct Workload {
+    name: String,
+    geometry: Geometry,
+    camera: Camera,
+    light: Option<(Vec3, Vec3, Vec3)>,
+}
+
+/// Ray batches of one kind.
+struct RaySet {
+    kind: &'static str,
+    batches: Vec<Rays>,
+    shadow: bool,
+}
+
+impl RaySet {
+    fn len(&self) -> usize {
+        self.batches.iter().map(Rays::len).sum()
+    }
+}
+
+fn scenes_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/cs184")
+}
+
+fn wanted(name: &str) -> bool {
+    match std::env::var("BVH_BENCH_SCENES") {
+        Ok(list) => list.split(',').any(|s| s.trim().eq_ignore_ascii_case(name)),
+        Err(_) => true,
+    }
+}
+
+fn load(name: &str, rel: &str) -> Option<Workload> {
+    let path = scenes_dir().join(rel);
+    if !path.is_file() {
+        println!("skipping {name}: {} not found", path.display());
+        return None;
+    }
+    let scene = wavepath::scene::collada::load_file(&path).expect("scene loads");
+    let light = scene.lights.iter().find_map(|l| match l {
+        Light::Area {
+            center,
+            dim_x,
+            dim_y,
+            ..
+        } => Some((*center, *dim_x, *dim_y)),
+        _ => None,
+    });
+    Some(Workload {
+        name: name.to_string(),
+        geometry: scene.geometry,
+        camera: scene.camera,
+        light,
+    })
+}
+
+/// A sphere of `4·n²` triangles with a bumpy radius (so the BVH has real
+/// depth complexity), as a lat-long grid.
+fn bumpy_sphere(n: usize) -> Workload {
+    let (rows, cols) = (n, 2 * n);
+    let mut positions = Vec::with_capacity((rows + 1) * cols);
+    for i in 0..=rows {
+        let theta = std::f32::consts::PI * i as f32 / rows as f32;
+        for j in 0..cols {
+            let phi = 2.0 * std::f32::consts::PI * j as f32 / cols as f32;
+            let r =
+                1.0 + 0.05 * (13.0 * theta).sin() * (17.0 * phi).cos() + 0.02 * (57.0 * phi).sin();
+            positions.push(
+                r * Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.cos(),
+                    theta.sin() * phi.sin(),
+                ),
+            );
+        }
+    }
+    let mut indices = Vec::with_capacity(2 * rows * cols);
+    let idx = |i: usize, j: usize| (i * cols + j % cols) as u32;
+    for i in 0..rows {
+        for j in 0..cols {
+            indices.push([idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)]);
+            indices.push([idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)]);
+        }
+    }
+    let n_tris = indices.len();
+    let geometry = Geometry {
+        triangles: Triangles {
+            positions,
+            normals: Vec::new(),
+            indices,
+            material: vec![0; n_tris],
+            texcoords: Vec::new(),
+        },
+        spheres: Spheres::default(),
+    };
+    let b = geometry.bounds();
+    let camera = Camera::place(
+        Vec3::new(0.4, 0.5, 1.0),
+        &Perspective::default(),
+        b.min,
+        b.max,
+    );
+    let name = if n_tris >= 1 << 20 {
+        format!("sphere{}M", n_tris >> 20)
+    } else {
+        format!("sphere{}k", n_tris >> 10)
+    };
+    Workload {
+        name,
+        geometry,
+        camera,
+        light: None,
+    }
+}
+
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f32 {
+        // SplitMix64.
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+fn batches(rays: impl Iterator<Item = (Vec3, Vec3, f32)>) -> Vec<Rays> {
+    let mut out = vec![Rays::with_capacity(BATCH)];
+    for (o, d, t) in rays {
+        if out.last().unwrap().len() == BATCH {
+            out.push(Rays::with_capacity(BATCH));
+        }
+        out.last_mut().unwrap().push(o, d, t);
+    }
+    out
+}
+
+/// Primary, diffuse and shadow rays for a workload.
+fn ray_sets(w: &Workload, bvh: &Bvh) -> Vec<RaySet> {
+    let cam = &w.camera;
+    let view = cam.view(WIDTH, HEIGHT);
+    let primary = batches((0..HEIGHT).flat_map(|y| {
+        (0..WIDTH).map(move |x| {
+            (
+                cam.position,
+                cam.direction(&view, x as f32 + 0.5, y as f32 + 0.5),
+                f32::INFINITY,
+            )
+        })
+    }));
+
+    // Primary hit points with their geometric normals facing the camera.
+    let mut surface = Vec::new();
+    for rays in &primary {
+        let mut hits = Hits::default();
+        bvh.intersect(rays, &mut hits, &mut TraversalStats::default(), None);
+        for i in 0..rays.len() {
+            if hits.prim[i] == NO_HIT {
+                continue;
+            }
+            let d = rays.direction(i);
+            let p = rays.origin(i) + hits.t[i] * d;
+            let prim = hits.prim[i] as usize;
+            let mut n = if prim < w.geometry.triangles.len() {
+                w.geometry
+                    .triangles
+                    .geometric_normal(prim)
+                    .normalize_or(Vec3::Y)
+            } else {
+                let s = prim - w.geometry.triangles.len();
+                (p - w.geometry.spheres.center[s]).normalize_or(Vec3::Y)
+            };
+            if n.dot(d) > 0.0 {
+                n = -n;
+            }
+            surface.push((p, n));
+        }
+    }
+
+    let mut rng = Rng(7);
+    let diffuse = batches(surface.iter().map(|&(p, n)| {
+        let (r1, r2) = (rng.next(), rng.next());
+        let (t, b) = n.any_orthonormal_pair();
+        let phi = 2.0 * std::f32::consts::PI * r2;
+        let s = r1.sqrt();
+        let d = s * phi.cos() * t + s * phi.sin() * b + (1.0 - r1).sqrt() * n;
+        (offset_origin(p, n), d, f32::INFINITY)
+    }));
+
+    let bounds = w.geometry.bounds();
+    let mut rng = Rng(11);
+    let shadow = batches(surface.iter().map(|&(p, n)| {
+        let target = match w.light {
+            Some((c, dx, dy)) => c + (rng.next() - 0.5) * dx + (rng.next() - 0.5) * dy,
+            None => bounds.center() + Vec3::Y * bounds.diagonal().length(),
+        };
+        let o = offset_origin(p, n);
+        // Stop just short of the light so its own geometry does not occlude.
+        (o, target - o, 1.0 - 1e-4)
+    }));
+
+    vec![
+        RaySet {
+            kind: "primary",
+            batches: primary,
+            shadow: false,
+        },
+        RaySet {
+            kind: "diffuse",
+            batches: diffuse,
+            shadow: false,
+        },
+        RaySet {
+            kind: "shadow",
+            batches: shadow,
+            shadow: true,
+        },
+    ]
+}
+
+/// Traces every batch of `set` with `bvh`, in parallel on the current pool.
+fn trace(bvh: &Bvh, set: &RaySet, hits: &mut [Hits], occ: &mut [Vec<bool>]) {
+    if set.shadow {
+        set.batches
+            .par_iter()
+            .zip(occ.par_iter_mut())
+            .for_each(|(rays, o)| {
+                bvh.occluded(rays, o, &mut TraversalStats::default());
+            });
+    } else {
+        set.batches
+            .par_iter()
+            .zip(hits.par_iter_mut())
+            .for_each(|(rays, h)| {
+                bvh.intersect(rays, h, &mut TraversalStats::default(), None);
+            });
+    }
+}
+
+fn pools() -> [(&'static str, rayon::ThreadPool); 2] {
+    [
+        (
+            "1t",
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(1)
+                .build()
+                .unwrap(),
+        ),
+        ("mt", rayon::ThreadPoolBuilder::new().build().unwrap()),
+    ]
+}
+
+fn bench_workload(c: &mut Criterion, w: &Workload) {
+    let tris = w.geometry.triangles.len();
+    println!(
+        "== {}: {} triangles, {} spheres",
+        w.name,
+        tris,
+        w.geometry.spheres.len()
+    );
+    let mut group = c.benchmark_group(format!("build/{}", w.name));
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(200));
+    group.measurement_time(Duration::from_secs(2));
+    group.throughput(Throughput::Elements(tris as u64));
+    group.bench_function("wavepath-sah", |b| {
+        b.iter(|| Bvh::build(&w.geometry, Accel::Sah))
+    });
+    #[cfg(feature = "embree")]
+    let device = embree::Device::new();
+    #[cfg(feature = "embree")]
+    group.bench_function("embree", |b| {
+        b.iter(|| embree::Scene::new(&device, &w.geometry))
+    });
+    group.finish();
+
+    let bvh = Bvh::build(&w.geometry, Accel::Sah);
+    println!(
+        "   wavepath: {} nodes, depth {}, {} triangle groups, {:.1} bytes/triangle",
+        bvh.node_count(),
+        bvh.depth(),
+        bvh.triangle_group_count(),
+        bvh.memory_bytes() as f64 / tris.max(1) as f64
+    );
+    #[cfg(feature = "embree")]
+    let escene = embree::Scene::new(&device, &w.geometry);
+
+    let sets = ray_sets(w, &bvh);
+    for set in &sets {
+        let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
+        let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
+        let mut group = c.benchmark_group(format!("trace/{}/{}", w.name, set.kind));
+        group
+            .sample_size(10)
+            .warm_up_time(Duration::from_millis(300));
+        group.measurement_time(Duration::from_secs(1));
+        group.throughput(Throughput::Elements(set.len() as u64));
+        for (threads, pool) in &pools() {
+            group.bench_function(BenchmarkId::new("wavepath", threads), |b| {
+                b.iter(|| pool.install(|| trace(&bvh, set, &mut hits, &mut occ)))
+            });
+            #[cfg(feature = "embree")]
+            for mode in [
+                embree::Mode::Single,
+                embree::Mode::Packet8,
+                embree::Mode::Packet16,
+            ] {
+                group.bench_function(BenchmarkId::new(mode.name(), threads), |b| {
+                    b.iter(|| {
+                        pool.install(|| {
+                            set.batches
+                                .par_iter()
+                                .zip(hits.par_iter_mut())
+                                .for_each(|(rays, h)| {
+                                    escene.trace(rays, set.shadow, set.kind == "primary", mode, h)
+                                })
+                        })
+                    })
+                });
+            }
+        }
+        group.finish();
+    }
+}
+
+/// Build time and single-thread primary-ray throughput from 1k to 4M triangles.
+fn bench_scaling(c: &mut Criterion) {
+    for n in [16, 64, 256, 512, 1024] {
+        let w = bumpy_sphere(n);
+        let tris = w.geometry.triangles.len();
+        let mut group = c.benchmark_group(format!("scaling/{}", w.name));
+        group
+            .sample_size(10)
+            .warm_up_time(Duration::from_millis(100));
+        group.measurement_time(Duration::from_secs(1));
+        group.throughput(Throughput::Elements(tris as u64));
+        group.bench_function("build", |b| b.iter(|| Bvh::build(&w.geometry, Accel::Sah)));
+        let bvh = Bvh::build(&w.geometry, Accel::Sah);
+        let sets = ray_sets(&w, &bvh);
+        let set = &sets[0];
+        let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
+        let mut occ: Vec<Vec<bool>> = Vec::new();
+        group.throughput(Throughput::Elements(set.len() as u64));
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        group.bench_function("primary-1t", |b| {
+            b.iter(|| pool.install(|| trace(&bvh, set, &mut hits, &mut occ)))
+        });
+        group.finish();
+    }
+}
+
+fn main() {
+    let mut c = Criterion::default().configure_from_args();
+    if std::env::var_os("BVH_BENCH_SCALING").is_some() {
+        bench_scaling(&mut c);
+    } else {
+        let dir = scenes_dir();
+        if !dir.is_dir() {
+            println!("skipping the CS184 scenes: {} not found", dir.display());
+        }
+        for (name, rel) in [
+            ("CBbunny", "sky/CBbunny.dae"),
+            ("maxplanck", "meshedit/maxplanck.dae"),
+            ("building", "keenan/building.dae"),
+        ] {
+            if wanted(name) {
+                if let Some(w) = load(name, rel) {
+                    bench_workload(&mut c, &w);
+                }
+            }
+        }
+        for (name, n) in [("sphere1M", 512), ("sphere4M", 1024)] {
+            if wanted(name) {
+                bench_workload(&mut c, &bumpy_sphere(n));
+            }
+        }
+    }
+    c.final_summary();
+}
+
+/// Hand-written bindings to the few Embree 3 calls the benchmark needs.
+#[cfg(feature = "embree")]
+mod embree {
+    use std::ffi::{c_char, c_void};
+    use std::ptr;
+
+    use wavepath::ray::{Hits, NO_HIT, Rays};
+    use wavepath::scene::Geometry;
+
+    const RTC_GEOMETRY_TYPE_TRIANGLE: u32 = 0;
+    const RTC_BUFFER_TYPE_INDEX: u32 = 0;
+    const RTC_BUFFER_TYPE_VERTEX: u32 = 1;
+    const RTC_FORMAT_UINT3: u32 = 0x5003;
+    const RTC_FORMAT_FLOAT3: u32 = 0x9003;
+    const RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT: u32 = 0;
+    const RTC_INTERSECT_CONTEXT_FLAG_COHERENT: u32 = 1;
+    const RTC_INVALID_GEOMETRY_ID: u32 = u32::MAX;
+
+    #[repr(C)]
+    struct RTCIntersectContext {
+        flags: u32,
+        filter: *const c_void,
+        inst_id: [u32; 1],
+    }
+
+    #[repr(C, align(16))]
+    #[derive(Default, Clone, Copy)]
+    struct RTCRay {
+        org: [f32; 3],
+        tnear: f32,
+        dir: [f32; 3],
+        time: f32,
+        tfar: f32,
+        mask: u32,
+        id: u32,
+        flags: u32,
+    }
+
+    #[repr(C, align(16))]
+    #[derive(Default, Clone, Copy)]
+    struct RTCHit {
+        ng: [f32; 3],
+        u: f32,
+        v: f32,
+        prim_id: u32,
+        geom_id: u32,
+        inst_id: [u32; 1],
+    }
+
+    #[repr(C)]
+    #[derive(Default, Clone, Copy)]
+    struct RTCRayHit {
+        ray: RTCRay,
+        hit: RTCHit,
+    }
+
+    /// `RTCRayHit8` / `RTCRayHit16`: SoA packets of N rays (12 ray arrays,
+    /// then 8 hit arrays). Alignment 32 suffices for 8; 64 for 16.
+    #[repr(C, align(64))]
+    #[derive(Clone, Copy)]
+    struct RayHitN<const N: usize> {
+        org: [[f32; N]; 3],
+        tnear: [f32; N],
+        dir: [[f32; N]; 3],
+        time: [f32; N],
+        tfar: [f32; N],
+        mask: [u32; N],
+        id: [u32; N],
+        flags: [u32; N],
+        ng: [[f32; N]; 3],
+        u: [f32; N],
+        v: [f32; N],
+        prim_id: [u32; N],
+        geom_id: [u32; N],
+        inst_id: [u32; N],
+    }
+
+    #[link(name = "embree3")]
+    unsafe extern "C" {
+        fn rtcNewDevice(config: *const c_char) -> *mut c_void;
+        fn rtcReleaseDevice(device: *mut c_void);
+        fn rtcNewScene(device: *mut c_void) -> *mut c_void;
+        fn rtcReleaseScene(scene: *mut c_void);
+        fn rtcNewGeometry(device: *mut c_void, ty: u32) -> *mut c_void;
+        fn rtcSetNewGeometryBuffer(
+            geometry: *mut c_void,
+            ty: u32,
+            slot: u32,
+            format: u32,
+            byte_stride: usize,
+            count: usize,
+        ) -> *mut c_void;
+        fn rtcCommitGeometry(geometry: *mut c_void);
+        fn rtcAttachGeometry(scene: *mut c_void, geometry: *mut c_void) -> u32;
+        fn rtcReleaseGeometry(geometry: *mut c_void);
+        fn rtcCommitScene(scene: *mut c_void);
+        fn rtcIntersect1(scene: *mut c_void, ctx: *mut RTCIntersectContext, rayhit: *mut RTCRayHit);
+        fn rtcOccluded1(scene: *mut c_void, ctx: *mut RTCIntersectContext, ray: *mut RTCRay);
+        fn rtcIntersect8(
+            valid: *const i32,
+            scene: *mut c_void,
+            ctx: *mut RTCIntersectContext,
+            rayhit: *mut RayHitN<8>,
+        );
+        fn rtcOccluded8(
+            valid: *const i32,
+            scene: *mut c_void,
+            ctx: *mut RTCIntersectContext,
+            ray: *mut RayHitN<8>,
+        );
+        fn rtcIntersect16(
+            valid: *const i32,
+            scene: *mut c_void,
+            ctx: *mut RTCIntersectContext,
+            rayhit: *mut RayHitN<16>,
+        );
+        fn rtcOccluded16(
+            valid: *const i32,
+            scene: *mut c_void,
+            ctx: *mut RTCIntersectContext,
+            ray: *mut RayHitN<16>,
+        );
+    }
+
+    pub struct Device(*mut c_void);
+
+    // SAFETY: Embree devices and committed scenes are thread safe for queries.
+    unsafe impl Send for Device {}
+    unsafe impl Sync for Device {}
+
+    impl Device {
+        pub fn new() -> Device {
+            // SAFETY: a null config string selects the defaults.
+            let d = unsafe { rtcNewDevice(ptr::null()) };
+            assert!(!d.is_null(), "rtcNewDevice failed");
+            Device(d)
+        }
+    }
+
+    impl Drop for Device {
+        fn drop(&mut self) {
+            // SAFETY: the device outlives every scene (scenes borrow it).
+            unsafe { rtcReleaseDevice(self.0) }
+        }
+    }
+
+    pub struct Scene(*mut c_void);
+
+    // SAFETY: a committed scene is immutable and Embree allows concurrent queries.
+    unsafe impl Send for Scene {}
+    unsafe impl Sync for Scene {}
+
+    #[derive(Clone, Copy, Debug)]
+    pub enum Mode {
+        Single,
+        Packet8,
+        Packet16,
+    }
+
+    impl Mode {
+        pub fn name(self) -> &'static str {
+            match self {
+                Mode::Single => "embree-1",
+                Mode::Packet8 => "embree-8",
+                Mode::Packet16 => "embree-16",
+            }
+        }
+    }
+
+    impl Scene {
+        /// Builds an Embree scene over the triangles of `g` (default quality).
+        pub fn new(device: &Device, g: &Geometry) -> Scene {
+            let t = &g.triangles;
+            // SAFETY: buffers are allocated by Embree with the sizes given and
+            // filled within those bounds before commit.
+            unsafe {
+                let scene = rtcNewScene(device.0);
+                let geom = rtcNewGeometry(device.0, RTC_GEOMETRY_TYPE_TRIANGLE);
+                let v = rtcSetNewGeometryBuffer(
+                    geom,
+                    RTC_BUFFER_TYPE_VERTEX,
+                    0,
+                    RTC_FORMAT_FLOAT3,
+                    12,
+                    t.positions.len(),
+                ) as *mut [f32; 3];
+                for (i, p) in t.positions.iter().enumerate() {
+                    *v.add(i) = p.to_array();
+                }
+                let idx = rtcSetNewGeometryBuffer(
+                    geom,
+                    RTC_BUFFER_TYPE_INDEX,
+                    0,
+                    RTC_FORMAT_UINT3,
+                    12,
+                    t.indices.len(),
+                ) as *mut [u32; 3];
+                ptr::copy_nonoverlapping(t.indices.as_ptr(), idx, t.indices.len());
+                rtcCommitGeometry(geom);
+                rtcAttachGeometry(scene, geom);
+                rtcReleaseGeometry(geom);
+                rtcCommitScene(scene);
+                Scene(scene)
+            }
+        }
+
+        /// Traces a batch; closest hits go to `hits.prim`/`hits.t`, any-hit
+        /// results to `hits.prim` (0 = occluded).
+        pub fn trace(
+            &self,
+            rays: &Rays,
+            shadow: bool,
+            coherent: bool,
+            mode: Mode,
+            hits: &mut Hits,
+        ) {
+            let n = rays.len();
+            hits.reset(n);
+            let mut ctx = RTCIntersectContext {
+                flags: if coherent {
+                    RTC_INTERSECT_CONTEXT_FLAG_COHERENT
+                } else {
+                    RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT
+                },
+                filter: ptr::null(),
+                inst_id: [RTC_INVALID_GEOMETRY_ID],
+            };
+            match mode {
+                Mode::Single => {
+                    for i in 0..n {
+                        let mut rh = RTCRayHit {
+                            ray: RTCRay {
+                                org: [rays.org_x[i], rays.org_y[i], rays.org_z[i]],
+                                dir: [rays.dir_x[i], rays.dir_y[i], rays.dir_z[i]],
+                                tfar: rays.t_max[i],
+                                mask: u32::MAX,
+                                ..Default::default()
+                            },
+                            hit: RTCHit {
+                                geom_id: RTC_INVALID_GEOMETRY_ID,
+                                ..Default::default()
+                            },
+                        };
+                        // SAFETY: valid scene, context and ray structures.
+                        unsafe {
+                            if shadow {
+                                rtcOccluded1(self.0, &mut ctx, &mut rh.ray);
+                                hits.prim[i] = if rh.ray.tfar < 0.0 { 0 } else { NO_HIT };
+                            } else {
+                                rtcIntersect1(self.0, &mut ctx, &mut rh);
+                                if rh.hit.geom_id != RTC_INVALID_GEOMETRY_ID {
+                                    hits.prim[i] = rh.hit.prim_id;
+                                    hits.t[i] = rh.ray.tfar;
+                                }
+                            }
+                        }
+                    }
+                }
+                Mode::Packet8 => self.packets::<8>(rays, shadow, &mut ctx, hits),
+                Mode::Packet16 => self.packets::<16>(rays, shadow, &mut ctx, hits),
+            }
+        }
+
+        fn packets<const N: usize>(
+            &self,
+            rays: &Rays,
+            shadow: bool,
+            ctx: &mut RTCIntersectContext,
+            hits: &mut Hits,
+        ) {
+            let n = rays.len();
+            let mut p: RayHitN<N> = RayHitN {
+                org: [[0.0; N]; 3],
+                tnear: [0.0; N],
+                dir: [[0.0; N]; 3],
+                time: [0.0; N],
+                tfar: [0.0; N],
+                mask: [u32::MAX; N],
+                id: [0; N],
+                flags: [0; N],
+                ng: [[0.0; N]; 3],
+                u: [0.0; N],
+                v: [0.0; N],
+                prim_id: [0; N],
+                geom_id: [RTC_INVALID_GEOMETRY_ID; N],
+                inst_id: [RTC_INVALID_GEOMETRY_ID; N],
+            };
+            /// The valid mask must be aligned like the packet.
+            #[repr(C, align(64))]
+            struct Valid<const N: usize>([i32; N]);
+            for start in (0..n).step_by(N) {
+                let mut valid = Valid([0i32; N]);
+                for l in 0..N.min(n - start) {
+                    let i = start + l;
+                    valid.0[l] = -1;
+                    p.org[0][l] = rays.org_x[i];
+                    p.org[1][l] = rays.org_y[i];
+                    p.org[2][l] = rays.org_z[i];
+                    p.dir[0][l] = rays.dir_x[i];
+                    p.dir[1][l] = rays.dir_y[i];
+                    p.dir[2][l] = rays.dir_z[i];
+                    p.tfar[l] = rays.t_max[i];
+                    p.geom_id[l] = RTC_INVALID_GEOMETRY_ID;
+                }
+                // SAFETY: packet and valid mask are correctly sized and aligned.
+                unsafe {
+                    match (N, shadow) {
+                        (8, false) => rtcIntersect8(
+                            valid.0.as_ptr(),
+                            self.0,
+                            ctx,
+                            &mut p as *mut _ as *mut RayHitN<8>,
+                        ),
+                        (8, true) => rtcOccluded8(
+                            valid.0.as_ptr(),
+                            self.0,
+                            ctx,
+                            &mut p as *mut _ as *mut RayHitN<8>,
+                        ),
+                        (16, false) => rtcIntersect16(
+                            valid.0.as_ptr(),
+                            self.0,
+                            ctx,
+                            &mut p as *mut _ as *mut RayHitN<16>,
+                        ),
+                        _ => rtcOccluded16(
+                            valid.0.as_ptr(),
+                            self.0,
+                            ctx,
+                            &mut p as *mut _ as *mut RayHitN<16>,
+                        ),
+                    }
+                }
+                for l in 0..N.min(n - start) {
+                    let i = start + l;
+                    if shadow {
+                        hits.prim[i] = if p.tfar[l] < 0.0 { 0 } else { NO_HIT };
+                    } else if p.geom_id[l] != RTC_INVALID_GEOMETRY_ID {
+                        hits.prim[i] = p.prim_id[l];
+                        hits.t[i] = p.tfar[l];
+                    }
+                }
+            }
+        }
+    }
+
+    impl Drop for Scene {
+        fn drop(&mut self) {
+            // SAFETY: releasing our own reference.
+            unsafe { rtcReleaseScene(self.0) }
+        }
+    }
+}
