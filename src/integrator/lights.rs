@@ -43,6 +43,12 @@ pub enum LightSource {
     Hemisphere {
         radiance: Vec3,
     },
+    /// Emissive sphere, sampled uniformly in the cone it subtends.
+    Sphere {
+        center: Vec3,
+        radius: f32,
+        radiance: Vec3,
+    },
     /// Two-sided emissive triangles, sampled by area.
     Mesh {
         /// Vertex positions per triangle.
@@ -114,6 +120,11 @@ impl LightSource {
                     weight: *radiance * (std::f32::consts::PI / cos),
                 })
             }
+            LightSource::Sphere {
+                center,
+                radius,
+                radiance,
+            } => sample_sphere(p, *center, *radius, *radiance, u, v),
             LightSource::Mesh {
                 triangles,
                 radiance,
@@ -135,6 +146,73 @@ impl LightSource {
             }
         }
     }
+}
+
+/// Samples the sphere from `p`: uniformly in its cone of directions from
+/// outside (pdf = 1 / 2π(1 − cos θmax)), uniformly over all directions from
+/// inside (pdf = 1 / 4π). The shadow ray ends just before the surface.
+fn sample_sphere(
+    p: Vec3,
+    center: Vec3,
+    radius: f32,
+    radiance: Vec3,
+    u: f32,
+    v: f32,
+) -> Option<LightSample> {
+    let to_center = center - p;
+    let dist2 = to_center.length_squared();
+    let r2 = radius * radius;
+    let (dir, pdf) = if dist2 > r2 {
+        let sin2_max = r2 / dist2;
+        // 1 − cos θmax, computed stably for small cones.
+        let one_minus_cos_max = if sin2_max < 1e-4 {
+            0.5 * sin2_max * (1.0 + 0.25 * sin2_max)
+        } else {
+            1.0 - (1.0 - sin2_max).max(0.0).sqrt()
+        };
+        let cos_theta = 1.0 - u * one_minus_cos_max;
+        let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+        let phi = 2.0 * std::f32::consts::PI * v;
+        let axis = to_center / dist2.sqrt();
+        let local = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta);
+        (
+            warp::to_world(local, axis),
+            1.0 / (2.0 * std::f32::consts::PI * one_minus_cos_max),
+        )
+    } else {
+        let z = 1.0 - 2.0 * u;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = 2.0 * std::f32::consts::PI * v;
+        (
+            Vec3::new(r * phi.cos(), r * phi.sin(), z),
+            1.0 / (4.0 * std::f32::consts::PI),
+        )
+    };
+    // Distance to the sphere along `dir` (near root outside, far root inside),
+    // in the numerically stable form of the quadratic.
+    let b = dir.dot(to_center);
+    let c = dist2 - r2;
+    let disc = (b * b - c).max(0.0);
+    let q = b + b.signum() * disc.sqrt();
+    // Outside (c > 0) both roots are positive and c/q is the nearer; inside
+    // they have opposite signs and the larger is the exit point.
+    let t = if c > 0.0 { c / q } else { q.max(c / q) };
+    if !(t > 0.0 && t.is_finite()) {
+        return None;
+    }
+    let hit = p + t * dir;
+    let n_light = (hit - center).normalize_or_zero();
+    let facing = if n_light.dot(p - hit) >= 0.0 {
+        n_light
+    } else {
+        -n_light
+    };
+    let end = offset_origin(hit, facing);
+    Some(LightSample {
+        direction: end - p,
+        t_max: 1.0,
+        weight: radiance / pdf,
+    })
 }
 
 /// A connection to point `q` on an area emitter whose normal `n_light`
@@ -199,6 +277,19 @@ impl LightSet {
                     LightSource::Hemisphere { radiance }
                 }
             });
+        }
+        // Emissive spheres.
+        let spheres = &scene.geometry.spheres;
+        for i in 0..spheres.len() {
+            if let Surface::Emitter { radiance, .. } = surfaces[spheres.material[i] as usize] {
+                if radiance.max_element() > 0.0 {
+                    set.sources.push(LightSource::Sphere {
+                        center: spheres.center[i],
+                        radius: spheres.radius[i],
+                        radiance,
+                    });
+                }
+            }
         }
         // Emissive meshes (area-light rectangles are sampled as rectangles above).
         let tris = &scene.geometry.triangles;

@@ -28,6 +28,65 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// Puts a scene together. Area lights become geometry too (one-sided
+    /// emissive rectangles, wound so their geometric normal is the light's
+    /// normal), so camera rays see them and they cast shadows.
+    pub fn assemble(
+        mut geometry: Geometry,
+        mut materials: Vec<NamedMaterial>,
+        lights: Vec<Light>,
+        camera: Camera,
+        warnings: Vec<String>,
+    ) -> Scene {
+        for light in &lights {
+            let (
+                Some(corners),
+                Light::Area {
+                    normal, radiance, ..
+                },
+            ) = (light.area_corners(), light)
+            else {
+                continue;
+            };
+            let index = materials.len() as u32;
+            materials.push(NamedMaterial {
+                name: format!("area light {index}"),
+                material: Material::Emission {
+                    radiance: *radiance,
+                    one_sided: true,
+                },
+            });
+            let tris = &mut geometry.triangles;
+            let base = tris.positions.len() as u32;
+            tris.positions.extend_from_slice(&corners);
+            tris.normals.extend_from_slice(&[*normal; 4]);
+            let along = (corners[1] - corners[0])
+                .cross(corners[2] - corners[0])
+                .dot(*normal)
+                > 0.0;
+            let quad: [[u32; 3]; 2] = if along {
+                [[0, 1, 2], [0, 2, 3]]
+            } else {
+                [[0, 2, 1], [0, 3, 2]]
+            };
+            let had_texcoords = !tris.texcoords.is_empty();
+            for q in quad {
+                tris.indices.push(q.map(|i| i + base));
+                tris.material.push(index);
+                if had_texcoords {
+                    tris.texcoords.push([glam::Vec2::ZERO; 3]);
+                }
+            }
+        }
+        Scene {
+            geometry,
+            materials,
+            lights,
+            camera,
+            warnings,
+        }
+    }
+
     #[inline]
     pub fn material_of(&self, prim: u32) -> &Material {
         &self.materials[self.geometry.material(prim) as usize].material

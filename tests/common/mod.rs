@@ -1,6 +1,8 @@
 //! Shared helpers for the integration tests.
 #![allow(dead_code)]
 
+pub mod render;
+
 use std::path::PathBuf;
 
 /// `../shared/scenes/cs184` beside the repository, if present.

@@ -92,10 +92,10 @@ fn parse_effect(
                 ));
             }
         };
-        if let Material::Glass { ior, .. } | Material::Refraction { ior, .. } = material {
-            if ior <= 0.0 {
-                return Err(src.error(record, format!("ior {ior} must be positive")));
-            }
+        if let Material::Glass { ior, .. } | Material::Refraction { ior, .. } = material
+            && ior <= 0.0
+        {
+            return Err(src.error(record, format!("ior {ior} must be positive")));
         }
         return Ok(material);
     }

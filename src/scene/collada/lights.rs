@@ -13,11 +13,13 @@ fn apply(t: &Mat4, v: Vec4) -> Vec3 {
     (*t * v).truncate()
 }
 
-/// The light a `<light>` describes, placed by world transform `t`; `None`
-/// (with a warning) for types the renderer has no use for.
+/// The light a `<light>` describes, placed by world transform `t` (of the
+/// node holding `instance`, its `<instance_light>`); `None` (with a warning)
+/// for types the renderer has no use for.
 pub fn parse_light(
     src: &Source,
     light: Node,
+    instance: Node,
     t: &Mat4,
     warnings: &mut Vec<String>,
 ) -> Result<Option<Light>, LoadError> {
@@ -53,7 +55,10 @@ pub fn parse_light(
             // translation leaks into it; reproduced for identical lighting.
             let d = apply(t, Vec4::new(0.0, 0.0, -1.0, 1.0));
             if d.length_squared() == 0.0 {
-                return Err(src.error(light, "directional light has a zero direction"));
+                return Err(src.error(
+                    instance,
+                    "directional light has a zero direction under its node's transform",
+                ));
             }
             Light::Directional {
                 to_light: d.normalize(),
@@ -65,7 +70,10 @@ pub fn parse_light(
             let dim_x = apply(t, Vec4::new(-1.0, 0.0, 0.0, 1.0)) - p;
             let dim_y = apply(t, Vec4::new(0.0, 1.0, 0.0, 1.0)) - p;
             if normal.length_squared() == 0.0 || dim_x.cross(dim_y).length_squared() == 0.0 {
-                return Err(src.error(light, "area light is degenerate (zero area or normal)"));
+                return Err(src.error(
+                    instance,
+                    "area light is degenerate under its node's transform (zero area or normal)",
+                ));
             }
             Light::Area {
                 center: p,

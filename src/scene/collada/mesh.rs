@@ -42,16 +42,16 @@ impl Accessor {
 fn read_source(src: &Source, node: Node, min_params: usize) -> Result<Accessor, LoadError> {
     let array = src.require(node, "float_array")?;
     let data = src.floats(array)?;
-    if let Some(count) = src.usize_attr(array, "count")? {
-        if count != data.len() {
-            return Err(src.error(
-                array,
-                format!(
-                    "count=\"{count}\" but the array holds {} numbers",
-                    data.len()
-                ),
-            ));
-        }
+    if let Some(count) = src.usize_attr(array, "count")?
+        && count != data.len()
+    {
+        return Err(src.error(
+            array,
+            format!(
+                "count=\"{count}\" but the array holds {} numbers",
+                data.len()
+            ),
+        ));
     }
     let accessor = child(node, "technique_common").and_then(|t| child(t, "accessor"));
     let Some(accessor) = accessor else {
@@ -163,6 +163,10 @@ pub fn parse_mesh(
             let offset = src
                 .usize_attr(input, "offset")?
                 .ok_or_else(|| src.error(input, "missing attribute offset"))?;
+            // Bounds the index stride (largest offset + 1) so it cannot overflow.
+            if offset >= u32::MAX as usize {
+                return Err(src.error(input, format!("offset=\"{offset}\" is too large")));
+            }
             match semantic.as_str() {
                 "VERTEX" => {
                     ids.resolve(src, input, "source", "vertices")?;
@@ -257,12 +261,13 @@ pub fn parse_mesh(
                     None => return Err(src.error(list, "missing <p>")),
                 };
                 let p = src.uints(p_node)?;
-                if count.checked_mul(3 * stride) != Some(p.len()) {
+                let indices = stride.checked_mul(3).and_then(|n| count.checked_mul(n));
+                if indices != Some(p.len()) {
                     return Err(src.error(
                         p_node,
                         format!(
                             "count=\"{count}\" triangles × 3 corners × {stride} inputs = {} indices, but <p> holds {}",
-                            count.saturating_mul(3 * stride),
+                            indices.map_or("too many".to_string(), |n| n.to_string()),
                             p.len()
                         ),
                     ));
@@ -294,16 +299,16 @@ pub fn parse_mesh(
                     }
                     polygons.push((p.len() / stride, p, p_node));
                 }
-                if let Some(count) = count {
-                    if count != polygons.len() {
-                        return Err(src.error(
-                            list,
-                            format!(
-                                "count=\"{count}\" but {} polygons are listed",
-                                polygons.len()
-                            ),
-                        ));
-                    }
+                if let Some(count) = count
+                    && count != polygons.len()
+                {
+                    return Err(src.error(
+                        list,
+                        format!(
+                            "count=\"{count}\" but {} polygons are listed",
+                            polygons.len()
+                        ),
+                    ));
                 }
             }
         }

@@ -40,13 +40,14 @@ pub fn load_file(path: &Path) -> Result<Scene, LoadError> {
     let bytes =
         std::fs::read(path).map_err(|e| LoadError::file(path, format!("cannot read: {e}")))?;
     let text = String::from_utf8(bytes).map_err(|e| {
-        LoadError::file(
-            path,
-            format!(
-                "not UTF-8 text (invalid byte at offset {})",
-                e.utf8_error().valid_up_to()
-            ),
-        )
+        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        LoadError {
+            line: Some(line_at(valid)),
+            ..LoadError::file(
+                path,
+                format!("not UTF-8 text (invalid byte at offset {})", valid.len()),
+            )
+        }
     })?;
     load_str(&text, path)
 }
@@ -56,12 +57,7 @@ pub fn load_str(text: &str, path: &Path) -> Result<Scene, LoadError> {
     if text.trim().is_empty() {
         return Err(LoadError::file(path, "file is empty"));
     }
-    let doc = Document::parse(text).map_err(|e| LoadError {
-        path: path.to_path_buf(),
-        line: Some(e.pos().row),
-        element: None,
-        message: format!("not well-formed XML: {e}"),
-    })?;
+    let doc = Document::parse(text).map_err(|e| xml_error(text, path, e))?;
     let src = Source { path, doc: &doc };
     let root = doc.root_element();
     if root.tag_name().name() != "COLLADA" {
@@ -83,6 +79,51 @@ pub fn load_str(text: &str, path: &Path) -> Result<Scene, LoadError> {
     };
     loader.load(root)?;
     Ok(loader.finish())
+}
+
+/// 1-based line number just past `bytes`.
+fn line_at(bytes: &[u8]) -> u32 {
+    bytes.iter().filter(|&&b| b == b'\n').count() as u32 + 1
+}
+
+/// A located error for XML that does not parse.
+fn xml_error(text: &str, path: &Path, e: roxmltree::Error) -> LoadError {
+    // One line: the parser quotes an offending character raw, even a newline.
+    let mut what = String::new();
+    for c in e.to_string().chars() {
+        if c.is_control() {
+            what.extend(c.escape_default());
+        } else {
+            what.push(c);
+        }
+    }
+    let mut error = LoadError {
+        line: Some(e.pos().row),
+        ..LoadError::file(path, format!("not well-formed XML: {what}"))
+    };
+    match &e {
+        // Name the element whose end tag is missing or misspelt.
+        roxmltree::Error::UnexpectedCloseTag(expected, ..) => {
+            error.element = Some(expected.clone());
+        }
+        // These carry no position (roxmltree says 1:1): the file ends early,
+        // so point at its last line and the element it was cut off inside.
+        roxmltree::Error::UnclosedRootNode | roxmltree::Error::UnexpectedEndOfStream => {
+            error.line = Some(line_at(text.trim_end().as_bytes()));
+            error.message = match xml::innermost_open_element(text) {
+                Some((name, start)) => {
+                    error.element = Some(name.to_string());
+                    format!(
+                        "not well-formed XML: the file ends inside <{name}> (opened on line {}); is it truncated?",
+                        line_at(&text.as_bytes()[..start])
+                    )
+                }
+                None => "not well-formed XML: the file ends before the root element is closed; is it truncated?".to_string(),
+            };
+        }
+        _ => {}
+    }
+    error
 }
 
 /// The camera node as found: world transform and optics.
@@ -161,7 +202,9 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
                 "instance_geometry" => self.instance_geometry(item, &world)?,
                 "instance_light" => {
                     let light = self.ids.resolve(src, item, "url", "light")?;
-                    if let Some(l) = lights::parse_light(src, light, &world, &mut self.warnings)? {
+                    if let Some(l) =
+                        lights::parse_light(src, light, item, &world, &mut self.warnings)?
+                    {
                         self.lights.push(l);
                     }
                 }
@@ -201,30 +244,30 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
             zfar: get("zfar")?,
         };
         for (name, value, max) in [("xfov", optics.xfov, 180.0), ("yfov", optics.yfov, 180.0)] {
-            if let Some(v) = value {
-                if !(v > 0.0 && v < max) {
-                    return Err(src.error(
-                        child(p, name).unwrap_or(p),
-                        format!("field of view {v}° is outside (0°, 180°)"),
-                    ));
-                }
-            }
-        }
-        if let Some(a) = optics.aspect_ratio {
-            if a <= 0.0 {
+            if let Some(v) = value
+                && !(v > 0.0 && v < max)
+            {
                 return Err(src.error(
-                    child(p, "aspect_ratio").unwrap_or(p),
-                    format!("aspect ratio {a} must be positive"),
+                    child(p, name).unwrap_or(p),
+                    format!("field of view {v}° is outside (0°, 180°)"),
                 ));
             }
         }
-        if let (Some(n), Some(f)) = (optics.znear, optics.zfar) {
-            if !(n >= 0.0 && f > n) {
-                return Err(src.error(
-                    p,
-                    format!("znear {n} and zfar {f} must satisfy 0 ≤ znear < zfar"),
-                ));
-            }
+        if let Some(a) = optics.aspect_ratio
+            && a <= 0.0
+        {
+            return Err(src.error(
+                child(p, "aspect_ratio").unwrap_or(p),
+                format!("aspect ratio {a} must be positive"),
+            ));
+        }
+        if let (Some(n), Some(f)) = (optics.znear, optics.zfar)
+            && !(n >= 0.0 && f > n)
+        {
+            return Err(src.error(
+                p,
+                format!("znear {n} and zfar {f} must satisfy 0 ≤ znear < zfar"),
+            ));
         }
         Ok(optics)
     }
@@ -284,6 +327,17 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
                 self.warnings.extend(warnings);
                 self.meshes.insert(id.clone(), mesh);
             }
+            let positions = &self.meshes[&id].positions;
+            if let Some(p) = positions
+                .iter()
+                .map(|&p| world.transform_point3(p))
+                .find(|p| !p.is_finite())
+            {
+                return Err(src.error(
+                    instance,
+                    format!("a vertex of the mesh is not finite in world space ({p}): the node's transform overflows"),
+                ));
+            }
             let symbols = self.meshes[&id].symbols.clone();
             let materials = symbols
                 .iter()
@@ -294,9 +348,13 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
         }
         let sphere = effects::renderer_technique(geometry).and_then(|t| child(t, "sphere"));
         if let Some(sphere) = sphere {
-            let radius = src.scalar(src.require(sphere, "radius")?)?;
+            let radius_node = src.require(sphere, "radius")?;
+            let radius = src.scalar(radius_node)?;
             if radius <= 0.0 {
-                return Err(src.error(sphere, format!("sphere radius {radius} must be positive")));
+                return Err(src.error(
+                    radius_node,
+                    format!("sphere radius {radius} must be positive"),
+                ));
             }
             // Radius scales with the length of the transformed x axis.
             let scale = (*world * Vec4::X).truncate().length();
@@ -380,53 +438,12 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
         }
         let camera = Camera::place(view_dir, &optics, bounds.min, bounds.max);
 
-        // Area lights are geometry too: one-sided emissive rectangles.
-        for light in &self.lights {
-            if let (
-                Some(corners),
-                Light::Area {
-                    normal, radiance, ..
-                },
-            ) = (light.area_corners(), light)
-            {
-                let index = self.materials.len() as u32;
-                self.materials.push(NamedMaterial {
-                    name: format!("area light {}", index),
-                    material: Material::Emission {
-                        radiance: *radiance,
-                        one_sided: true,
-                    },
-                });
-                let tris = &mut self.geometry.triangles;
-                let base = tris.positions.len() as u32;
-                tris.positions.extend_from_slice(&corners);
-                tris.normals.extend_from_slice(&[*normal; 4]);
-                // Wind so that the geometric normal is the light's normal.
-                let along = (corners[1] - corners[0])
-                    .cross(corners[2] - corners[0])
-                    .dot(*normal)
-                    > 0.0;
-                let quad: [[u32; 3]; 2] = if along {
-                    [[0, 1, 2], [0, 2, 3]]
-                } else {
-                    [[0, 2, 1], [0, 3, 2]]
-                };
-                for q in quad {
-                    tris.indices.push(q.map(|i| i + base));
-                    tris.material.push(index);
-                }
-                if !tris.texcoords.is_empty() {
-                    tris.texcoords
-                        .extend_from_slice(&[[glam::Vec2::ZERO; 3]; 2]);
-                }
-            }
-        }
-        Scene {
-            geometry: self.geometry,
-            materials: self.materials,
-            lights: self.lights,
+        Scene::assemble(
+            self.geometry,
+            self.materials,
+            self.lights,
             camera,
-            warnings: self.warnings,
-        }
+            self.warnings,
+        )
     }
 }

@@ -33,6 +33,67 @@ pub fn path<'a, 'i>(node: Node<'a, 'i>, names: &[&str]) -> Option<Node<'a, 'i>> 
     names.iter().try_fold(node, |n, name| child(n, name))
 }
 
+/// The innermost element still open at the end of `text` (local name and the
+/// byte offset of its start tag): what a truncated file was cut off inside.
+///
+/// A light scan of the tags, for error messages only; markup cut off midway
+/// ends the scan.
+pub fn innermost_open_element(text: &str) -> Option<(&str, usize)> {
+    let mut open: Vec<(&str, usize)> = Vec::new();
+    let mut at = 0;
+    while let Some(i) = text[at..].find('<') {
+        let start = at + i;
+        let tail = &text[start..];
+        let skip_to = |end: &str| tail.find(end).map(|e| start + e + end.len());
+        let next = if tail.starts_with("<!--") {
+            skip_to("-->")
+        } else if tail.starts_with("<![CDATA[") {
+            skip_to("]]>")
+        } else if tail.starts_with("<?") {
+            skip_to("?>")
+        } else if tail.starts_with("<!") {
+            skip_to(">")
+        } else {
+            // A tag: its '>' is the first one outside quoted attribute values.
+            let mut quote = None;
+            let close = tail.bytes().position(|b| match quote {
+                Some(q) => {
+                    if b == q {
+                        quote = None;
+                    }
+                    false
+                }
+                None if b == b'"' || b == b'\'' => {
+                    quote = Some(b);
+                    false
+                }
+                None => b == b'>',
+            });
+            let Some(close) = close else { break };
+            let (closing, name_from) = match tail.strip_prefix("</") {
+                Some(_) => (true, 2),
+                None => (false, 1),
+            };
+            let name = tail[name_from..close]
+                .split(|c: char| c.is_ascii_whitespace() || c == '/')
+                .next()
+                .unwrap_or("");
+            let name = name.rsplit(':').next().unwrap_or(name);
+            if closing {
+                open.pop();
+            } else if !tail[..close].ends_with('/') {
+                open.push((name, start));
+            }
+            Some(start + close + 1)
+        };
+        match next {
+            Some(next) => at = next,
+            None => break,
+        }
+    }
+    open.last().copied()
+}
+
 impl Source<'_, '_> {
     /// The whitespace-separated numbers of `node`'s text, all finite.
     pub fn floats(&self, node: Node) -> Result<Vec<f32>, LoadError> {

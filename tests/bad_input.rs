@@ -1,0 +1,733 @@
+//! Bad scene input: every malformed file is a [`LoadError`] that names the
+//! file, the element and its line, and the loader never panics; the CLI
+//! turns it into a one-line `error:` and a non-zero exit, writing no image.
+//!
+//! Each case is a targeted edit of [`BASE`], a small valid scene, so a case
+//! tests exactly one defect.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use wavepath::scene::collada::{LoadError, load_file, load_str};
+
+/// A minimal valid scene: Y_UP, a camera, a point light, one effect and
+/// material, one textured triangle (a `<polylist>`) and one CGL sphere.
+/// Errors report lines of this text: `fixtures/minimal.dae` line for line.
+const BASE: &str = include_str!("fixtures/minimal.dae");
+
+/// The name errors report for scenes loaded from strings.
+const NAME: &str = "scenes/bad.dae";
+
+/// `text` with each `from` (which must occur exactly once) replaced by its `to`.
+fn edit_text(text: &str, pairs: &[(&str, &str)]) -> String {
+    let mut out = text.to_string();
+    for &(from, to) in pairs {
+        let n = out.matches(from).count();
+        assert_eq!(n, 1, "{from:?} occurs {n} times, expected exactly once");
+        out = out.replacen(from, to, 1);
+        assert!(out.contains(to));
+    }
+    assert_ne!(out, text, "the edits changed nothing");
+    out
+}
+
+/// [`BASE`] with the given edits.
+fn edits(pairs: &[(&str, &str)]) -> String {
+    edit_text(BASE, pairs)
+}
+
+/// [`BASE`] with `from` replaced by `to`.
+fn edit(from: &str, to: &str) -> String {
+    edits(&[(from, to)])
+}
+
+/// 1-based line of the one occurrence of `needle` in `text`.
+fn line_of(text: &str, needle: &str) -> u32 {
+    let n = text.matches(needle).count();
+    assert_eq!(
+        n, 1,
+        "marker {needle:?} occurs {n} times, expected exactly once"
+    );
+    let at = text.find(needle).unwrap();
+    text[..at].matches('\n').count() as u32 + 1
+}
+
+/// Loads `text`, which must fail without panicking.
+fn load_err(text: &str) -> LoadError {
+    match catch_unwind(AssertUnwindSafe(|| load_str(text, Path::new(NAME)))) {
+        Err(_) => panic!("the loader panicked"),
+        Ok(Ok(_)) => panic!("a bad scene loaded without error"),
+        Ok(Err(e)) => e,
+    }
+}
+
+/// The error for `text`: it must name the file, `element`, and the line of
+/// `marker` in `text`, and its message must contain `words`.
+fn expect_at(text: &str, element: &str, marker: &str, words: &str) -> LoadError {
+    let e = load_err(text);
+    let line = line_of(text, marker);
+    assert_eq!(e.path, Path::new(NAME), "{e}");
+    assert_eq!(e.element.as_deref(), Some(element), "wrong element: {e}");
+    assert_eq!(e.line, Some(line), "wrong line: {e}");
+    assert!(e.message.contains(words), "{e}\n(message lacks {words:?})");
+    let shown = e.to_string();
+    assert!(
+        shown.starts_with(&format!("{NAME}:{line}: <{element}>: ")),
+        "{shown}"
+    );
+    assert!(!shown.contains('\n'), "multi-line error: {shown:?}");
+    e
+}
+
+/// [`BASE`] with `from` → `to` fails at `element` on the line of `to`.
+fn case(from: &str, to: &str, element: &str, words: &str) -> LoadError {
+    expect_at(&edit(from, to), element, to, words)
+}
+
+/// A scratch directory for files the tests write.
+fn scratch() -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bad_input");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Writes `bytes` to a scratch file called `name`.
+fn scratch_file(name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
+    let path = scratch().join(name);
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// Runs the CLI on `scene`: it must exit 1 with a single `error:` line
+/// containing `words`, no panic, and no image written.
+fn cli_rejects(scene: &Path, words: &str) {
+    let stem = scene.file_stem().unwrap().to_string_lossy().into_owned();
+    let image = scratch().join(format!("{stem}-cli-out.png"));
+    let _ = std::fs::remove_file(&image);
+    let out = Command::new(env!("CARGO_BIN_EXE_wavepath"))
+        .args(["-t", "1", "-s", "1", "-r", "8", "8", "-f"])
+        .arg(&image)
+        .arg(scene)
+        .output()
+        .expect("cannot run the wavepath binary");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "the CLI panicked:\n{stderr}");
+    assert_eq!(out.status.code(), Some(1), "exit status; stderr:\n{stderr}");
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert_eq!(lines.len(), 1, "expected one line on stderr:\n{stderr}");
+    assert!(lines[0].starts_with("error: "), "{stderr}");
+    assert!(lines[0].contains(words), "{stderr}\n(lacks {words:?})");
+    assert!(
+        !image.exists(),
+        "an image was written for a bad scene: {}",
+        image.display()
+    );
+}
+
+// ---------------------------------------------------------------- the base
+
+#[test]
+fn base_scene_loads() {
+    let scene = load_str(BASE, Path::new(NAME)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.geometry.triangles.len(), 1);
+    assert_eq!(scene.geometry.spheres.len(), 1);
+    assert_eq!(scene.lights.len(), 1);
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    // The <triangles> form used by one case below is valid when counted right.
+    let tris = edits(&[
+        (
+            r#"<polylist material="grey-sym" count="1">"#,
+            r#"<triangles material="grey-sym" count="1">"#,
+        ),
+        ("<vcount>3</vcount>\n", ""),
+        ("</polylist>", "</triangles>"),
+    ]);
+    let scene = load_str(&tris, Path::new(NAME)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.geometry.triangles.len(), 1);
+}
+
+// ------------------------------------------------------------ malformed XML
+
+#[test]
+fn unclosed_tag() {
+    let text = edit("<zfar>100</zfar>", "<zfar>100");
+    let e = load_err(&text);
+    // The parser notices at the enclosing close tag.
+    assert_eq!(e.path, Path::new(NAME));
+    assert_eq!(e.line, Some(line_of(&text, "</perspective>")), "{e}");
+    assert_eq!(e.element.as_deref(), Some("zfar"), "{e}");
+    assert!(e.message.contains("not well-formed XML"), "{e}");
+    assert!(e.message.contains("zfar"), "{e}");
+}
+
+#[test]
+fn empty_tag_missing_its_bracket_via_cli() {
+    // The parser names the newline it found instead of '>': still one line.
+    let text = edit(
+        r##"<instance_camera url="#cam"/>"##,
+        r##"<instance_camera url="#cam"/"##,
+    );
+    let line = line_of(&text, "<instance_camera");
+    let e = load_err(&text);
+    assert_eq!(e.line, Some(line), "{e}");
+    assert!(!e.to_string().contains('\n'), "multi-line error: {e:?}");
+    assert!(e.message.contains(r"expected '>' not '\n'"), "{e}");
+    let path = scratch_file("no_bracket.dae", &text);
+    cli_rejects(
+        &path,
+        &format!("no_bracket.dae:{line}: not well-formed XML"),
+    );
+}
+
+#[test]
+fn bad_entity() {
+    let text = edit(
+        "<color>0.5 0.5 0.5 1</color>",
+        "<color>0.5 &bogus; 0.5 1</color>",
+    );
+    let e = load_err(&text);
+    assert_eq!(e.path, Path::new(NAME));
+    assert_eq!(e.line, Some(line_of(&text, "&bogus;")), "{e}");
+    assert!(e.message.contains("not well-formed XML"), "{e}");
+    assert!(e.message.contains("bogus"), "{e}");
+    assert!(e.to_string().starts_with(&format!("{NAME}:")));
+}
+
+#[test]
+fn mismatched_close_tag_via_cli() {
+    let text = edit("</light>", "</lamp>");
+    let path = scratch_file("mismatched.dae", &text);
+    let e = load_file(&path).unwrap_err();
+    assert_eq!(e.path, path);
+    assert_eq!(e.line, Some(line_of(&text, "</lamp>")), "{e}");
+    assert_eq!(e.element.as_deref(), Some("light"), "{e}");
+    cli_rejects(
+        &path,
+        &format!("mismatched.dae:{}:", line_of(&text, "</lamp>")),
+    );
+}
+
+#[test]
+fn truncated_dragon() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes/malformed/dragon_truncated.dae");
+    if !path.is_file() {
+        eprintln!("skipping: {} is absent", path.display());
+        return;
+    }
+    let e = catch_unwind(|| load_file(&path))
+        .expect("the loader panicked")
+        .expect_err("a truncated file loaded");
+    assert_eq!(e.path, path);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let last_line = text.lines().count() as u32;
+    assert_eq!(e.line, Some(last_line), "{e}");
+    assert!(e.message.contains("not well-formed XML"), "{e}");
+    assert!(e.message.contains("truncated"), "{e}");
+    // The innermost element left open is named.
+    assert_eq!(e.element.as_deref(), Some("float_array"), "{e}");
+    cli_rejects(&path, &format!("dragon_truncated.dae:{last_line}:"));
+}
+
+// ------------------------------------------------ counts vs. array lengths
+
+#[test]
+fn float_array_count_disagrees() {
+    case(
+        r#"count="9">0 0 0 1 0 0 0 1 0"#,
+        r#"count="10">0 0 0 1 0 0 0 1 0"#,
+        "float_array",
+        "count=\"10\" but the array holds 9 numbers",
+    );
+}
+
+#[test]
+fn accessor_count_too_large() {
+    case(
+        r##"<accessor source="#tri-pos-array" count="3" stride="3">"##,
+        r##"<accessor source="#tri-pos-array" count="4" stride="3">"##,
+        "accessor",
+        "reach past the 9 numbers",
+    );
+}
+
+#[test]
+fn accessor_stride_too_large() {
+    case(
+        r##"<accessor source="#tri-pos-array" count="3" stride="3">"##,
+        r##"<accessor source="#tri-pos-array" count="3" stride="4">"##,
+        "accessor",
+        "reach past the 9 numbers",
+    );
+}
+
+#[test]
+fn accessor_stride_too_small() {
+    case(
+        r##"<accessor source="#tri-pos-array" count="3" stride="3">"##,
+        r##"<accessor source="#tri-pos-array" count="3" stride="2">"##,
+        "accessor",
+        "at least 3 components",
+    );
+}
+
+#[test]
+fn accessor_count_not_a_number() {
+    case(
+        r##"<accessor source="#tri-uv-array" count="3" stride="2"/>"##,
+        r##"<accessor source="#tri-uv-array" count="-3" stride="2"/>"##,
+        "accessor",
+        "not a non-negative integer",
+    );
+}
+
+#[test]
+fn polylist_count_disagrees_with_vcount() {
+    case(
+        r#"<polylist material="grey-sym" count="1">"#,
+        r#"<polylist material="grey-sym" count="2">"#,
+        "polylist",
+        "<vcount> lists 1 polygons",
+    );
+}
+
+#[test]
+fn vcount_sum_disagrees_with_p() {
+    let text = edit("<vcount>3</vcount>", "<vcount>4</vcount>");
+    expect_at(&text, "p", "<p>", "but <p> holds 9");
+}
+
+#[test]
+fn triangles_count_disagrees_with_p() {
+    let text = edits(&[
+        (
+            r#"<polylist material="grey-sym" count="1">"#,
+            r#"<triangles material="grey-sym" count="2">"#,
+        ),
+        ("<vcount>3</vcount>\n", ""),
+        ("</polylist>", "</triangles>"),
+    ]);
+    expect_at(&text, "p", "<p>", "but <p> holds 9");
+}
+
+#[test]
+fn huge_input_offset() {
+    // usize::MAX: the index stride (largest offset + 1) must not overflow.
+    case(
+        r#"offset="2" set="0""#,
+        r#"offset="18446744073709551615" set="0""#,
+        "input",
+        "too large",
+    );
+}
+
+// --------------------------------------------------- indices out of range
+
+#[test]
+fn position_index_out_of_range() {
+    case(
+        "<p>0 0 0 1 0 1 2 0 2</p>",
+        "<p>0 0 0 1 0 1 3 0 2</p>",
+        "p",
+        "vertex index 3 is out of range (3 positions)",
+    );
+}
+
+#[test]
+fn normal_index_out_of_range() {
+    case(
+        "<p>0 0 0 1 0 1 2 0 2</p>",
+        "<p>0 0 0 1 0 1 2 1 2</p>",
+        "p",
+        "NORMAL index 1 is out of range (1 entries)",
+    );
+}
+
+#[test]
+fn texcoord_index_out_of_range() {
+    case(
+        "<p>0 0 0 1 0 1 2 0 2</p>",
+        "<p>0 0 0 1 0 1 2 0 3</p>",
+        "p",
+        "TEXCOORD index 3 is out of range (3 entries)",
+    );
+}
+
+#[test]
+fn negative_index() {
+    case(
+        "<p>0 0 0 1 0 1 2 0 2</p>",
+        "<p>0 0 0 1 0 1 -2 0 2</p>",
+        "p",
+        "value 7 is not a non-negative integer",
+    );
+}
+
+// ------------------------------------------------ NaN, Inf, not a number
+
+#[test]
+fn bad_numbers_in_float_array() {
+    for (bad, words) in [
+        ("nan", "not finite"),
+        ("NaN", "not finite"),
+        ("inf", "not finite"),
+        ("-infinity", "not finite"),
+        ("1e39", "not finite"),
+        ("one", "not a number"),
+        ("1,5", "not a number"),
+    ] {
+        let to = format!(r#"count="9">0 0 0 1 0 0 0 {bad} 0"#);
+        let e = case(r#"count="9">0 0 0 1 0 0 0 1 0"#, &to, "float_array", words);
+        assert!(e.message.contains("value 8"), "{e}");
+    }
+}
+
+#[test]
+fn bad_numbers_in_matrix() {
+    for (bad, words) in [
+        ("nan", "not finite"),
+        ("inf", "not finite"),
+        ("x", "not a number"),
+    ] {
+        case(
+            "<matrix>1 0 0 0 0 1 0 0 0 0 1 5 0 0 0 1</matrix>",
+            &format!("<matrix>1 0 0 0 0 1 0 0 0 0 1 {bad} 0 0 0 1</matrix>"),
+            "matrix",
+            words,
+        );
+    }
+    case(
+        "<matrix>1 0 0 0 0 1 0 0 0 0 1 5 0 0 0 1</matrix>",
+        "<matrix>1 0 0 0 0 1 0 0 0 0 1 5 0 0 0</matrix>",
+        "matrix",
+        "expected 16 numbers, found 15",
+    );
+}
+
+#[test]
+fn bad_numbers_in_light_colour() {
+    for (bad, words) in [
+        ("nan", "not finite"),
+        ("inf", "not finite"),
+        ("bright", "not a number"),
+    ] {
+        case(
+            "<color>1 1 1</color>",
+            &format!("<color>1 {bad} 1</color>"),
+            "color",
+            words,
+        );
+    }
+    case(
+        "<color>1 1 1</color>",
+        "<color>1 1</color>",
+        "color",
+        "expected 3 numbers, found 2",
+    );
+    let text = edit("<color>1 1 1</color>", "<color>1 -1 1</color>");
+    expect_at(&text, "point", "<point>", "negative component");
+}
+
+#[test]
+fn bad_numbers_in_sphere_radius() {
+    for (bad, words) in [
+        ("nan", "not finite"),
+        ("inf", "not finite"),
+        ("big", "not a number"),
+        ("", "expected 1 numbers, found 0"),
+    ] {
+        case(
+            "<radius>0.5</radius>",
+            &format!("<radius>{bad}</radius>"),
+            "radius",
+            words,
+        );
+    }
+}
+
+#[test]
+fn bad_number_via_cli() {
+    let text = edit(
+        r#"count="9">0 0 0 1 0 0 0 1 0"#,
+        r#"count="9">0 0 0 1 0 nan 0 1 0"#,
+    );
+    let path = scratch_file("nan_position.dae", &text);
+    let line = line_of(&text, "nan");
+    cli_rejects(
+        &path,
+        &format!("nan_position.dae:{line}: <float_array>: value 6 is not finite"),
+    );
+}
+
+// ---------------------------------------------------------- dangling urls
+
+#[test]
+fn dangling_instance_geometry() {
+    case(
+        r##"<instance_geometry url="#tri">"##,
+        r##"<instance_geometry url="#nothing">"##,
+        "instance_geometry",
+        "url=\"#nothing\" refers to no element",
+    );
+}
+
+#[test]
+fn dangling_instance_material_target() {
+    case(
+        r##"symbol="grey-sym" target="#mat""##,
+        r##"symbol="grey-sym" target="#nothing""##,
+        "instance_material",
+        "target=\"#nothing\" refers to no element",
+    );
+}
+
+#[test]
+fn dangling_instance_effect() {
+    case(
+        r##"<instance_effect url="#fx"/>"##,
+        r##"<instance_effect url="#nothing"/>"##,
+        "instance_effect",
+        "url=\"#nothing\" refers to no element",
+    );
+}
+
+#[test]
+fn dangling_instance_light() {
+    case(
+        r##"<instance_light url="#lamp"/>"##,
+        r##"<instance_light url="#nothing"/>"##,
+        "instance_light",
+        "url=\"#nothing\" refers to no element",
+    );
+}
+
+#[test]
+fn dangling_instance_camera() {
+    case(
+        r##"<instance_camera url="#cam"/>"##,
+        r##"<instance_camera url="#nothing"/>"##,
+        "instance_camera",
+        "url=\"#nothing\" refers to no element",
+    );
+}
+
+#[test]
+fn dangling_vertex_source() {
+    case(
+        r##"source="#tri-vtx""##,
+        r##"source="#nothing""##,
+        "input",
+        "source=\"#nothing\" refers to no element",
+    );
+}
+
+#[test]
+fn dangling_position_source() {
+    case(
+        r##"source="#tri-pos""##,
+        r##"source="#nothing""##,
+        "input",
+        "source=\"#nothing\" refers to no element",
+    );
+}
+
+#[test]
+fn url_to_the_wrong_kind_of_element() {
+    case(
+        r##"<instance_geometry url="#tri">"##,
+        r##"<instance_geometry url="#mat">"##,
+        "instance_geometry",
+        "refers to a <material>, expected a <geometry>",
+    );
+}
+
+#[test]
+fn url_that_is_not_local() {
+    case(
+        r##"<instance_light url="#lamp"/>"##,
+        r##"<instance_light url="lights.dae#lamp"/>"##,
+        "instance_light",
+        "not a local reference",
+    );
+}
+
+#[test]
+fn dangling_url_via_cli() {
+    let text = edit(
+        r##"<instance_geometry url="#tri">"##,
+        r##"<instance_geometry url="#nothing">"##,
+    );
+    let path = scratch_file("dangling.dae", &text);
+    let line = line_of(&text, "#nothing");
+    cli_rejects(
+        &path,
+        &format!("dangling.dae:{line}: <instance_geometry>: url=\"#nothing\" refers to no element"),
+    );
+}
+
+// ------------------------------------------------ not a scene file at all
+
+#[test]
+fn missing_file() {
+    let path = scratch().join("does-not-exist.dae");
+    let _ = std::fs::remove_file(&path);
+    let e = load_file(&path).unwrap_err();
+    assert_eq!(e.path, path);
+    assert_eq!((e.line, e.element.as_deref()), (None, None), "{e}");
+    assert!(e.message.contains("cannot read"), "{e}");
+    assert!(e.to_string().starts_with(&path.display().to_string()));
+    cli_rejects(&path, "does-not-exist.dae: cannot read");
+}
+
+#[test]
+fn directory() {
+    let path = scratch().join("a-directory.dae");
+    std::fs::create_dir_all(&path).unwrap();
+    let e = load_file(&path).unwrap_err();
+    assert_eq!(e.path, path);
+    assert_eq!((e.line, e.element.as_deref()), (None, None), "{e}");
+    assert!(e.message.contains("is a directory"), "{e}");
+    cli_rejects(&path, "a-directory.dae: is a directory");
+}
+
+#[test]
+fn empty_and_blank_files() {
+    for (name, text) in [("empty.dae", ""), ("blank.dae", " \n\t\r\n  \n")] {
+        let e = load_err(text);
+        assert_eq!(e.path, Path::new(NAME));
+        assert_eq!((e.line, e.element.as_deref()), (None, None), "{e}");
+        assert!(e.message.contains("empty"), "{e}");
+        let path = scratch_file(name, text);
+        let e = load_file(&path).unwrap_err();
+        assert_eq!(e.path, path);
+        assert!(e.message.contains("empty"), "{e}");
+    }
+    cli_rejects(
+        &scratch_file("empty-cli.dae", ""),
+        "empty-cli.dae: file is empty",
+    );
+}
+
+#[test]
+fn non_utf8_bytes() {
+    let at = BASE.find(r#"name="grey""#).unwrap() + r#"name="gr"#.len();
+    let mut bytes = BASE.as_bytes().to_vec();
+    bytes.insert(at, 0xff);
+    let path = scratch_file("latin1.dae", &bytes);
+    let e = load_file(&path).unwrap_err();
+    assert_eq!(e.path, path);
+    assert!(e.message.contains("not UTF-8"), "{e}");
+    assert!(e.message.contains(&format!("offset {at}")), "{e}");
+    assert_eq!(e.line, Some(line_of(BASE, r#"name="grey""#)), "{e}");
+    cli_rejects(&path, "not UTF-8");
+}
+
+#[test]
+fn svg_is_not_collada() {
+    let text = "<?xml version=\"1.0\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\">\n  <rect width=\"1\" height=\"1\"/>\n</svg>\n";
+    expect_at(text, "svg", "<svg", "not a COLLADA document");
+}
+
+#[test]
+fn unknown_up_axis() {
+    case(
+        "<up_axis>Y_UP</up_axis>",
+        "<up_axis>W_UP</up_axis>",
+        "up_axis",
+        "unknown up axis \"W_UP\"",
+    );
+}
+
+// ---------------------------------------------------- values out of range
+
+#[test]
+fn non_positive_sphere_radius() {
+    for r in ["0", "-0", "-1", "-1e-30"] {
+        case(
+            "<radius>0.5</radius>",
+            &format!("<radius>{r}</radius>"),
+            "radius",
+            "must be positive",
+        );
+    }
+}
+
+#[test]
+fn sphere_scaled_to_nothing() {
+    let text = edit("<translate>2 0 0</translate>", "<scale>0 0 0</scale>");
+    expect_at(
+        &text,
+        "instance_geometry",
+        r##"<instance_geometry url="#ball">"##,
+        "not a positive finite number",
+    );
+}
+
+#[test]
+fn degenerate_area_light() {
+    let text = edits(&[
+        ("<point>", "<area>"),
+        ("</point>", "</area>"),
+        (
+            "<translate>0 3 0</translate>",
+            "<matrix>0 0 0 0 0 0 0 0 0 0 0 3 0 0 0 1</matrix>",
+        ),
+    ]);
+    // The light itself is fine: its node's transform squashes it.
+    expect_at(
+        &text,
+        "instance_light",
+        r##"<instance_light url="#lamp"/>"##,
+        "area light is degenerate",
+    );
+    // With an ordinary transform, the same area light loads.
+    let ok = edits(&[("<point>", "<area>"), ("</point>", "</area>")]);
+    load_str(&ok, Path::new(NAME)).unwrap_or_else(|e| panic!("{e}"));
+}
+
+#[test]
+fn zero_rotation_axis() {
+    case(
+        "<rotate>0 1 0 30</rotate>",
+        "<rotate>0 0 0 30</rotate>",
+        "rotate",
+        "rotation axis is zero",
+    );
+}
+
+#[test]
+fn transform_overflows_the_mesh() {
+    let text = edits(&[
+        ("<rotate>0 1 0 30</rotate>", "<scale>1e30 1e30 1e30</scale>"),
+        (
+            r#"count="9">0 0 0 1 0 0 0 1 0"#,
+            r#"count="9">0 0 0 1e30 0 0 0 1e30 0"#,
+        ),
+    ]);
+    expect_at(
+        &text,
+        "instance_geometry",
+        r##"<instance_geometry url="#tri">"##,
+        "not finite",
+    );
+}
+
+#[test]
+fn invalid_field_of_view() {
+    for fov in ["0", "-10", "180", "360"] {
+        case(
+            "<xfov>45</xfov>",
+            &format!("<xfov>{fov}</xfov>"),
+            "xfov",
+            "outside (0°, 180°)",
+        );
+    }
+    case("<xfov>45</xfov>", "<xfov>nan</xfov>", "xfov", "not finite");
+    case(
+        "<aspect_ratio>1.5</aspect_ratio>",
+        "<aspect_ratio>0</aspect_ratio>",
+        "aspect_ratio",
+        "must be positive",
+    );
+}

@@ -1,0 +1,366 @@
+//! The estimators against closed-form answers.
+//!
+//! Each test renders a scene whose radiance is known exactly at every pixel
+//! and checks that the mean residual is zero within a 4.5σ confidence
+//! interval (see `common::render::assert_unbiased`). Every render also
+//! asserts that no pixel is NaN or infinite.
+
+mod common;
+
+use std::f64::consts::PI;
+
+use common::render::*;
+use glam::Vec3;
+use wavepath::film::adaptive::Adaptive;
+use wavepath::integrator::{Bounces, Settings};
+use wavepath::scene::{Light, Material, Scene};
+use wavepath::wavefront::RenderSettings;
+
+const ALBEDO: f32 = 0.5;
+
+fn settings(width: u32, height: u32, spp: u32, max_depth: u32) -> RenderSettings {
+    RenderSettings {
+        width,
+        height,
+        spp,
+        seed: 7,
+        integrator: Settings {
+            max_depth,
+            ..Settings::default()
+        },
+        ..RenderSettings::default()
+    }
+}
+
+/// Inside a diffuse sphere of radius 1 and albedo ρ with a point light of
+/// intensity I at its centre. Every wall point gets E₀ = I/R² directly, and
+/// since a sphere's interior form factors are uniform, every further bounce
+/// is uniform too and multiplies by ρ: L = (ρ I / π R²) Σ_{k<m} ρ^k.
+fn furnace() -> Scene {
+    let mut b = Builder::default();
+    let wall = b.material(Material::Diffuse {
+        albedo: Vec3::splat(ALBEDO),
+    });
+    b.sphere(Vec3::ZERO, 1.0, wall);
+    b.lights.push(Light::Point {
+        position: Vec3::ZERO,
+        intensity: Vec3::splat(std::f32::consts::PI),
+    });
+    b.build(camera(
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(0.3, 0.2, -1.0),
+        Vec3::Y,
+        60.0,
+        18,
+    ))
+}
+
+/// Radiance of bounce k (k ≥ 1) in the furnace: (ρ I / π) ρ^(k−1) with I = π.
+fn furnace_bounce(k: u32) -> f64 {
+    ALBEDO as f64 * (ALBEDO as f64).powi(k as i32 - 1)
+}
+
+#[test]
+fn furnace_direct_lighting_is_exact() {
+    let scene = furnace();
+    let image = render(&scene, &settings(16, 12, 1, 1), 2);
+    let expected = furnace_bounce(1);
+    for p in &image.pixels {
+        assert!(
+            ((p.y as f64) - expected).abs() < 1e-4 * expected,
+            "{p} vs {expected}"
+        );
+    }
+}
+
+#[test]
+fn furnace_global_illumination_matches_the_geometric_series() {
+    let scene = furnace();
+    for (m, rr) in [(2, true), (5, true), (5, false), (12, true)] {
+        let mut s = settings(24, 18, 32, m);
+        s.integrator.russian_roulette = rr;
+        let image = render(&scene, &s, 2);
+        let expected: f64 = (1..=m).map(furnace_bounce).sum();
+        let est = channel(&image, 1);
+        assert_unbiased(
+            &format!("furnace -m {m} roulette {rr}"),
+            &est,
+            &vec![expected; est.len()],
+            1e-4,
+        );
+    }
+}
+
+#[test]
+fn furnace_bounce_selection() {
+    let scene = furnace();
+    let m = 4;
+    for (bounces, expected) in [
+        (Bounces::Last, furnace_bounce(m)),
+        (Bounces::Indirect, (2..=m).map(furnace_bounce).sum::<f64>()),
+    ] {
+        let mut s = settings(24, 18, 32, m);
+        s.integrator.bounces = bounces;
+        let est = channel(&render(&scene, &s, 2), 1);
+        assert_unbiased(
+            &format!("furnace {bounces:?}"),
+            &est,
+            &vec![expected; est.len()],
+            1e-4,
+        );
+    }
+}
+
+#[test]
+fn zero_bounce_shows_only_emission() {
+    let scene = furnace();
+    let image = render(&scene, &settings(8, 6, 4, 0), 1);
+    assert!(image.pixels.iter().all(|p| *p == Vec3::ZERO));
+}
+
+/// A diffuse floor (y = 0) seen from straight above.
+fn floor_scene(b: &mut Builder) {
+    let floor = b.material(Material::Diffuse {
+        albedo: Vec3::splat(ALBEDO),
+    });
+    let s = 50.0;
+    b.quad(
+        Vec3::new(-s, 0.0, -s),
+        Vec3::new(-s, 0.0, s),
+        Vec3::new(s, 0.0, s),
+        Vec3::new(s, 0.0, -s),
+        floor,
+    );
+}
+
+/// Looking straight down from `height` with a 90° vertical field of view
+/// over a `W × H` image (below any light in these scenes).
+fn top_down_camera(height: f32) -> wavepath::scene::Camera {
+    camera(
+        Vec3::new(0.0, height, 0.0),
+        Vec3::NEG_Y,
+        Vec3::NEG_Z,
+        90.0,
+        H,
+    )
+}
+
+const W: u32 = 40;
+const H: u32 = 30;
+
+/// Where the centre ray of each pixel meets the floor (y = 0).
+fn floor_points(scene: &Scene, w: u32, h: u32) -> Vec<Vec3> {
+    let mut points = Vec::new();
+    for row in 0..h {
+        for x in 0..w {
+            let d = pixel_ray(scene, w, h, x, row);
+            let o = scene.camera.position;
+            points.push(o + (-o.y / d.y) * d);
+        }
+    }
+    points
+}
+
+#[test]
+fn point_light_falls_off_with_the_inverse_square() {
+    for height in [0.5f32, 1.0, 2.0, 4.0] {
+        let mut b = Builder::default();
+        floor_scene(&mut b);
+        let intensity = 3.0;
+        b.lights.push(Light::Point {
+            position: Vec3::new(0.3, height, -0.2),
+            intensity: Vec3::splat(intensity),
+        });
+        let scene = b.build(top_down_camera(3.0));
+        let (w, h) = (W, H);
+        let image = render(&scene, &settings(w, h, 1, 1), 2);
+        for (p, x) in image.pixels.iter().zip(floor_points(&scene, w, h)) {
+            let d = Vec3::new(0.3, height, -0.2) - x;
+            // L = ρ/π · I cos θ / d², cos θ = height / d.
+            let expected =
+                ALBEDO as f64 / PI * intensity as f64 * height as f64 / (d.length() as f64).powi(3);
+            assert!(
+                ((p.x as f64) - expected).abs() <= 2e-4 * expected,
+                "height {height}: at {x}: {} vs {expected}",
+                p.x
+            );
+        }
+    }
+}
+
+/// A square light of side 1 at height 1 facing down, as a rectangle light
+/// or as an emissive two-triangle mesh, over the floor.
+fn square_light_scene(as_mesh: bool, radiance: f32) -> (Scene, [Vec3; 4]) {
+    let mut b = Builder::default();
+    floor_scene(&mut b);
+    let c = Vec3::new(0.2, 1.0, 0.1);
+    let corners = [
+        c + Vec3::new(-0.5, 0.0, -0.5),
+        c + Vec3::new(0.5, 0.0, -0.5),
+        c + Vec3::new(0.5, 0.0, 0.5),
+        c + Vec3::new(-0.5, 0.0, 0.5),
+    ];
+    if as_mesh {
+        let m = b.material(Material::Emission {
+            radiance: Vec3::splat(radiance),
+            one_sided: false,
+        });
+        b.quad(corners[0], corners[1], corners[2], corners[3], m);
+    } else {
+        b.lights.push(Light::Area {
+            center: c,
+            normal: Vec3::NEG_Y,
+            dim_x: Vec3::X,
+            dim_y: Vec3::Z,
+            radiance: Vec3::splat(radiance),
+        });
+    }
+    (b.build(top_down_camera(0.8)), corners)
+}
+
+fn square_light_expected(
+    scene: &Scene,
+    corners: &[Vec3; 4],
+    radiance: f32,
+    w: u32,
+    h: u32,
+) -> Vec<f64> {
+    floor_points(scene, w, h)
+        .iter()
+        .map(|&x| ALBEDO as f64 / PI * radiance as f64 * polygon_irradiance(x, Vec3::Y, corners))
+        .collect()
+}
+
+#[test]
+fn rectangle_light_matches_the_form_factor() {
+    let (w, h) = (W, H);
+    for as_mesh in [false, true] {
+        let (scene, corners) = square_light_scene(as_mesh, 4.0);
+        let expected = square_light_expected(&scene, &corners, 4.0, w, h);
+        let mut s = settings(w, h, 16, 1);
+        s.integrator.light_samples = 4;
+        let est = channel(&render(&scene, &s, 2), 0);
+        assert_unbiased(
+            &format!("square light (mesh: {as_mesh}), light sampling"),
+            &est,
+            &expected,
+            1e-4,
+        );
+    }
+}
+
+#[test]
+fn hemisphere_sampling_light_sampling_and_one_bounce_agree() {
+    let (w, h) = (W, H);
+    let (scene, corners) = square_light_scene(false, 4.0);
+    let expected = square_light_expected(&scene, &corners, 4.0, w, h);
+    // Uniform hemisphere sampling of the same direct lighting (much noisier).
+    let mut s = settings(w, h, 64, 1);
+    s.integrator.hemisphere = true;
+    s.integrator.light_samples = 4;
+    let hemi = channel(&render(&scene, &s, 2), 0);
+    assert_unbiased("square light, hemisphere sampling", &hemi, &expected, 1e-4);
+    // -m 2, only the last bounce, in a scene where light cannot bounce twice
+    // (floor only): zero, so direct lighting is all of -m 1.
+    let mut s = settings(w, h, 4, 2);
+    s.integrator.bounces = Bounces::Last;
+    let second = channel(&render(&scene, &s, 2), 0);
+    assert!(
+        second.iter().all(|&v| v == 0.0),
+        "a lone floor has no second bounce"
+    );
+}
+
+#[test]
+fn sphere_light_matches_the_closed_form() {
+    // A sphere of radiance L fully above the floor's horizon gives
+    // E = π L (r/d)² cos θ at a floor point at distance d from its centre.
+    let (w, h) = (W, H);
+    let (center, radius, radiance) = (Vec3::new(-0.3, 1.2, 0.2), 0.4f32, 3.0f32);
+    let mut b = Builder::default();
+    floor_scene(&mut b);
+    let m = b.material(Material::Emission {
+        radiance: Vec3::splat(radiance),
+        one_sided: false,
+    });
+    b.sphere(center, radius, m);
+    let scene = b.build(top_down_camera(0.8));
+    let expected: Vec<f64> = floor_points(&scene, w, h)
+        .iter()
+        .map(|&x| {
+            let d = (center - x).as_dvec3();
+            let dist = d.length();
+            let cos = d.y / dist;
+            let e = PI * radiance as f64 * (radius as f64 / dist).powi(2) * cos;
+            ALBEDO as f64 / PI * e
+        })
+        .zip(0..)
+        .map(|(v, i)| {
+            // Pixels that see the sphere itself show its radiance.
+            let _ = i;
+            v
+        })
+        .collect();
+    let mut s = settings(w, h, 16, 1);
+    s.integrator.light_samples = 4;
+    let image = render(&scene, &s, 2);
+    // Leave out pixels whose camera ray hits the sphere.
+    let keep: Vec<usize> = (0..(w * h) as usize)
+        .filter(|&i| {
+            let (x, row) = ((i as u32) % w, (i as u32) / w);
+            let d = pixel_ray(&scene, w, h, x, row).normalize();
+            let oc = scene.camera.position - center;
+            let b = oc.dot(d);
+            b * b - (oc.length_squared() - radius * radius) < 0.0
+        })
+        .collect();
+    assert!(keep.len() > (w * h) as usize / 2);
+    let est: Vec<f64> = keep.iter().map(|&i| image.pixels[i].x as f64).collect();
+    let exp: Vec<f64> = keep.iter().map(|&i| expected[i]).collect();
+    assert_unbiased("sphere light", &est, &exp, 1e-4);
+}
+
+#[test]
+fn adaptive_and_fixed_sampling_agree() {
+    let scene = furnace();
+    let m = 3;
+    let expected: f64 = (1..=m).map(furnace_bounce).sum();
+    let mut s = settings(24, 18, 256, m);
+    s.adaptive = Some(Adaptive {
+        samples_per_batch: 16,
+        tolerance: 0.05,
+    });
+    let adaptive = render(&scene, &s, 2);
+    let taken: u64 = adaptive.samples.iter().map(|&n| n as u64).sum();
+    assert!(
+        taken < 256 * 24 * 18,
+        "some pixels must converge early (took {taken} samples)"
+    );
+    assert!(
+        adaptive
+            .samples
+            .iter()
+            .all(|&n| n >= 16 && n <= 256 && n % 16 == 0)
+    );
+    let est = channel(&adaptive, 1);
+    // Stopping when the interval is small biases by far less than the tolerance.
+    assert_unbiased("furnace, adaptive", &est, &vec![expected; est.len()], 0.01);
+}
+
+#[test]
+fn images_are_bit_identical_across_threads_and_batch_sizes() {
+    let (scene, _) = square_light_scene(false, 4.0);
+    let mut s = settings(37, 23, 8, 4);
+    s.integrator.light_samples = 2;
+    let one = render(&scene, &s, 1);
+    s.batch_size = 61;
+    s.tile_size = 7;
+    let two = render(&scene, &s, 2);
+    assert!(one.pixels.iter().any(|p| *p != Vec3::ZERO));
+    for (a, b) in one.pixels.iter().zip(&two.pixels) {
+        assert_eq!(
+            a.to_array().map(f32::to_bits),
+            b.to_array().map(f32::to_bits)
+        );
+    }
+}
