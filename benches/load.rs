@@ -28,7 +28,10 @@ fn load(c: &mut Criterion) {
         return;
     }
     let mut group = c.benchmark_group("load");
-    group.sample_size(10).measurement_time(Duration::from_secs(2)).warm_up_time(Duration::from_millis(300));
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(2))
+        .warm_up_time(Duration::from_millis(300));
     for rel in SCENES {
         let path = dir.join(rel);
         group.bench_function(*rel, |b| b.iter(|| load_file(&path).unwrap()));

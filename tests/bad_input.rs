@@ -731,3 +731,43 @@ fn invalid_field_of_view() {
         "must be positive",
     );
 }
+
+#[test]
+fn instance_node_cycle() {
+    // A node that instances itself (twice: without cycle detection the walk
+    // would branch 2^256 times before the depth limit).
+    case(
+        r#"<node id="lamp-node">"#,
+        r##"<node id="lamp-node"><instance_node url="#lamp-node"/><instance_node url="#lamp-node"/>"##,
+        "node",
+        "cycle",
+    );
+}
+
+#[test]
+fn instance_node_exponential_expansion() {
+    // No cycle, but each of 40 nodes instances the next twice: 2^40 instances.
+    let mut chain = String::new();
+    for i in 0..40 {
+        chain.push_str(&format!(
+            r##"<node id="n{i}"><instance_node url="#n{}"/><instance_node url="#n{}"/></node>"##,
+            i + 1,
+            i + 1
+        ));
+    }
+    chain.push_str(r#"<node id="n40"/>"#);
+    let text = edit(
+        r#"<library_visual_scenes>"#,
+        &format!(r#"<library_nodes>{chain}</library_nodes><library_visual_scenes>"#),
+    );
+    let text = edit_text(
+        &text,
+        &[(
+            r#"<node id="lamp-node">"#,
+            r##"<node id="lamp-node"><instance_node url="#n0"/>"##,
+        )],
+    );
+    let e = load_err(&text);
+    assert_eq!(e.element.as_deref(), Some("node"), "{e}");
+    assert!(e.message.contains("node instances"), "{e}");
+}

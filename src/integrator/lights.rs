@@ -39,6 +39,7 @@ pub enum LightSource {
         dim_x: Vec3,
         dim_y: Vec3,
         radiance: Vec3,
+        area: f32,
     },
     Hemisphere {
         radiance: Vec3,
@@ -97,15 +98,15 @@ impl LightSource {
                 dim_x,
                 dim_y,
                 radiance,
+                area,
             } => {
                 let q = *center + (u - 0.5) * *dim_x + (v - 0.5) * *dim_y;
-                let area = dim_x.length() * dim_y.length();
                 // One-sided: light leaves toward `normal` only.
                 let cos_light = normal.dot((p - q).normalize_or_zero());
                 if cos_light <= 0.0 {
                     return None;
                 }
-                Some(connect(p, q, *normal, cos_light, area, *radiance))
+                Some(connect(p, q, *normal, cos_light, *area, *radiance))
             }
             LightSource::Hemisphere { radiance } => {
                 // Cosine-weighted about the surface normal; only upward directions see the sky.
@@ -271,6 +272,7 @@ impl LightSet {
                     dim_x,
                     dim_y,
                     radiance,
+                    area: light.area(),
                 },
                 Light::Hemisphere { radiance } => {
                     set.sky += radiance;
@@ -281,14 +283,14 @@ impl LightSet {
         // Emissive spheres.
         let spheres = &scene.geometry.spheres;
         for i in 0..spheres.len() {
-            if let Surface::Emitter { radiance, .. } = surfaces[spheres.material[i] as usize] {
-                if radiance.max_element() > 0.0 {
-                    set.sources.push(LightSource::Sphere {
-                        center: spheres.center[i],
-                        radius: spheres.radius[i],
-                        radiance,
-                    });
-                }
+            if let Surface::Emitter { radiance, .. } = surfaces[spheres.material[i] as usize]
+                && radiance.max_element() > 0.0
+            {
+                set.sources.push(LightSource::Sphere {
+                    center: spheres.center[i],
+                    radius: spheres.radius[i],
+                    radiance,
+                });
             }
         }
         // Emissive meshes (area-light rectangles are sampled as rectangles above).

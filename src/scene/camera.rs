@@ -27,7 +27,7 @@ pub struct Camera {
 }
 
 /// The camera's optics as the scene file states them.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Perspective {
     /// Horizontal field of view in degrees, if given.
     pub xfov: Option<f32>,
@@ -36,18 +36,6 @@ pub struct Perspective {
     pub aspect_ratio: Option<f32>,
     pub znear: Option<f32>,
     pub zfar: Option<f32>,
-}
-
-impl Default for Perspective {
-    fn default() -> Self {
-        Perspective {
-            xfov: None,
-            yfov: None,
-            aspect_ratio: None,
-            znear: None,
-            zfar: None,
-        }
-    }
 }
 
 impl Perspective {

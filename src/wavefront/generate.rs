@@ -28,6 +28,10 @@ impl PassQueue<'_> {
         self.active.len() * self.samples_per_pixel as usize
     }
 
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
     pub fn is_done(&self) -> bool {
         self.next >= self.len()
     }

@@ -177,7 +177,7 @@ fn direct_lights(
         let inv_count = 1.0 / count as f32;
         for _ in 0..count {
             let (u, v) = paths.stream[i].next_2d();
-            let w = paths.stream[i].next();
+            let w = paths.stream[i].next_1d();
             let Some(s) = light.sample(p, n, u, v, w) else {
                 continue;
             };
@@ -232,7 +232,7 @@ fn continue_path(
     let mut throughput = paths.throughput[i] * albedo;
     if settings.russian_roulette && paths.depth[i] >= 1 {
         let q = throughput.max_element().min(1.0);
-        if paths.stream[i].next() >= q {
+        if paths.stream[i].next_1d() >= q {
             return false;
         }
         throughput /= q;

@@ -29,8 +29,11 @@ use xml::{Ids, child, children, path};
 
 use crate::scene::{Camera, Geometry, Light, Material, NamedMaterial, Perspective, Scene};
 
-/// How deep `<node>`/`<instance_node>` nesting may go (guards against cycles).
+/// How deep `<node>`/`<instance_node>` nesting may go.
 const MAX_NODE_DEPTH: usize = 256;
+/// How many node instances the scene graph may expand to: `<instance_node>`
+/// chains can multiply without a cycle (each node instancing the next twice).
+const MAX_NODE_VISITS: usize = 1 << 20;
 
 /// Loads a `.dae` file.
 pub fn load_file(path: &Path) -> Result<Scene, LoadError> {
@@ -76,6 +79,8 @@ pub fn load_str(text: &str, path: &Path) -> Result<Scene, LoadError> {
         meshes: HashMap::new(),
         lights: Vec::new(),
         camera: None,
+        node_path: Vec::new(),
+        node_visits: 0,
     };
     loader.load(root)?;
     Ok(loader.finish())
@@ -144,6 +149,9 @@ struct Loader<'s, 'a, 'i> {
     meshes: HashMap<String, LocalMesh>,
     lights: Vec<Light>,
     camera: Option<CameraNode>,
+    /// Nodes on the path from the scene root to the node being visited.
+    node_path: Vec<roxmltree::NodeId>,
+    node_visits: usize,
 }
 
 impl<'a, 'i> Loader<'_, 'a, 'i> {
@@ -186,11 +194,35 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
         if depth > MAX_NODE_DEPTH {
             return Err(src.error(
                 node,
-                format!(
-                    "nodes nest deeper than {MAX_NODE_DEPTH} levels (a cycle of <instance_node>?)"
-                ),
+                format!("nodes nest deeper than {MAX_NODE_DEPTH} levels"),
             ));
         }
+        if self.node_path.contains(&node.id()) {
+            return Err(src.error(
+                node,
+                "<instance_node> makes a cycle: this node instances itself",
+            ));
+        }
+        self.node_visits += 1;
+        if self.node_visits > MAX_NODE_VISITS {
+            return Err(src.error(
+                node,
+                format!("the scene graph expands to more than {MAX_NODE_VISITS} node instances"),
+            ));
+        }
+        self.node_path.push(node.id());
+        let result = self.visit_children(node, parent, depth);
+        self.node_path.pop();
+        result
+    }
+
+    fn visit_children(
+        &mut self,
+        node: Node<'a, 'i>,
+        parent: &Mat4,
+        depth: usize,
+    ) -> Result<(), LoadError> {
+        let src = self.src;
         let world = *parent * transform::node_local_transform(src, node, &mut self.warnings)?;
         for item in node.children().filter(|c| c.is_element()) {
             match item.tag_name().name() {
