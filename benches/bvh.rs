@@ -327,6 +327,23 @@ fn bench_workload(c: &mut Criterion, w: &Workload) {
 
     let sets = ray_sets(w, &bvh);
     for set in &sets {
+        let mut stats = TraversalStats::default();
+        for rays in &set.batches {
+            if set.shadow {
+                bvh.occluded(rays, &mut Vec::new(), &mut stats);
+            } else {
+                bvh.intersect(rays, &mut Hits::default(), &mut stats, None);
+            }
+        }
+        println!(
+            "   {} rays: {}, {:.1} nodes and {:.1} primitives per ray",
+            set.kind,
+            stats.rays,
+            stats.nodes_visited as f64 / stats.rays.max(1) as f64,
+            stats.primitives_tested as f64 / stats.rays.max(1) as f64
+        );
+    }
+    for set in &sets {
         let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
         let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
         let mut group = c.benchmark_group(format!("trace/{}/{}", w.name, set.kind));
@@ -392,8 +409,121 @@ fn bench_scaling(c: &mut Criterion) {
     }
 }
 
+/// CPU time consumed by the calling thread, in nanoseconds (first field
+/// of `/proc/thread-self/schedstat`); unlike wall time it is not inflated
+/// when other processes compete for the cores.
+fn thread_cpu_ns() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    s.split_whitespace().next()?.parse().ok()
+}
+
+/// Best of `reps` runs of `f`: (thread CPU seconds, wall seconds).
+fn best_of(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
+    let (mut cpu, mut wall) = (f64::INFINITY, f64::INFINITY);
+    for _ in 0..reps {
+        let c0 = thread_cpu_ns();
+        let t0 = std::time::Instant::now();
+        f();
+        let w = t0.elapsed().as_secs_f64();
+        wall = wall.min(w);
+        cpu = cpu.min(match (c0, thread_cpu_ns()) {
+            (Some(a), Some(b)) => (b - a) as f64 * 1e-9,
+            _ => w,
+        });
+    }
+    (cpu, wall)
+}
+
+/// `BVH_BENCH_QUICK=1`: a plain table instead of criterion. Single-thread
+/// rates use the tracing thread's CPU time (robust on a shared machine),
+/// all-thread rates wall time; best of 5.
+fn quick(w: &Workload) {
+    let tris = w.geometry.triangles.len();
+    let (_, build) = best_of(3, || drop(Bvh::build(&w.geometry, Accel::Sah)));
+    let bvh = Bvh::build(&w.geometry, Accel::Sah);
+    #[cfg(feature = "embree")]
+    let device = embree::Device::new();
+    #[cfg(feature = "embree")]
+    let (_, ebuild) = best_of(3, || drop(embree::Scene::new(&device, &w.geometry)));
+    #[cfg(not(feature = "embree"))]
+    let ebuild = f64::NAN;
+    #[cfg(feature = "embree")]
+    let escene = embree::Scene::new(&device, &w.geometry);
+    println!(
+        "{}: {} tris, build {:.1} ms (embree {:.1} ms), {:.1} B/tri, {} nodes, depth {}",
+        w.name,
+        tris,
+        build * 1e3,
+        ebuild * 1e3,
+        bvh.memory_bytes() as f64 / tris.max(1) as f64,
+        bvh.node_count(),
+        bvh.depth()
+    );
+    let all = rayon::ThreadPoolBuilder::new().build().unwrap();
+    for set in &ray_sets(w, &bvh) {
+        let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
+        let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
+        let n = set.len() as f64 * 1e-6;
+        let mut row = format!("  {:8} {:7} rays", set.kind, set.len());
+        let (c1, _) = best_of(5, || {
+            for (rays, (h, o)) in set.batches.iter().zip(hits.iter_mut().zip(occ.iter_mut())) {
+                if set.shadow {
+                    bvh.occluded(rays, o, &mut TraversalStats::default());
+                } else {
+                    bvh.intersect(rays, h, &mut TraversalStats::default(), None);
+                }
+            }
+        });
+        let (_, wm) = best_of(5, || all.install(|| trace(&bvh, set, &mut hits, &mut occ)));
+        row += &format!(" | wavepath {:6.1} {:6.1}", n / c1, n / wm);
+        #[cfg(feature = "embree")]
+        for mode in [
+            embree::Mode::Single,
+            embree::Mode::Packet8,
+            embree::Mode::Packet16,
+        ] {
+            let primary = set.kind == "primary";
+            let (c1, _) = best_of(5, || {
+                for (rays, h) in set.batches.iter().zip(hits.iter_mut()) {
+                    escene.trace(rays, set.shadow, primary, mode, h);
+                }
+            });
+            let (_, wm) = best_of(5, || {
+                all.install(|| {
+                    set.batches
+                        .par_iter()
+                        .zip(hits.par_iter_mut())
+                        .for_each(|(rays, h)| escene.trace(rays, set.shadow, primary, mode, h))
+                })
+            });
+            row += &format!(" | {} {:6.1} {:6.1}", mode.name(), n / c1, n / wm);
+        }
+        println!("{row}");
+    }
+}
+
 fn main() {
     let mut c = Criterion::default().configure_from_args();
+    if std::env::var_os("BVH_BENCH_QUICK").is_some() {
+        for (name, rel) in [
+            ("CBbunny", "sky/CBbunny.dae"),
+            ("maxplanck", "meshedit/maxplanck.dae"),
+            ("building", "keenan/building.dae"),
+        ] {
+            if wanted(name) {
+                if let Some(w) = load(name, rel) {
+                    quick(&w);
+                }
+            }
+        }
+        for n in [16, 64, 256, 512, 1024] {
+            let w = bumpy_sphere(n);
+            if wanted(&w.name) {
+                quick(&w);
+            }
+        }
+        return;
+    }
     if std::env::var_os("BVH_BENCH_SCALING").is_some() {
         bench_scaling(&mut c);
     } else {

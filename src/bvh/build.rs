@@ -11,7 +11,8 @@
 //! Volume Hierarchies" (2007): centroids are dropped into equal-width bins
 //! along each axis, and only bin boundaries are evaluated as split planes.
 
-use glam::Vec3;
+use glam::Vec3A;
+use rayon::prelude::*;
 
 use crate::scene::Aabb;
 
@@ -20,7 +21,7 @@ use crate::scene::Aabb;
 pub(crate) struct BuildParams {
     /// Surface area heuristic if true, else midpoint of the longest centroid axis.
     pub sah: bool,
-    /// Number of centroid bins per axis for the SAH.
+    /// Number of centroid bins per axis for the SAH (at most [`MAX_BINS`]).
     pub bins: usize,
     /// Cost of one node visit relative to one primitive test.
     pub traversal_cost: f32,
@@ -39,6 +40,54 @@ const MAX_HEURISTIC_DEPTH: usize = 48;
 
 /// Above this many primitives a node's two subtrees are built in parallel.
 const PARALLEL_THRESHOLD: usize = 4096;
+
+/// Above this many primitives a node's bounds and bins are computed by
+/// several threads (the top levels would otherwise run on one core).
+const PARALLEL_SCAN: usize = 1 << 16;
+
+/// Box with SIMD-friendly (16-byte) corners for the inner loops of the build.
+#[derive(Clone, Copy, Debug)]
+struct Bounds {
+    min: Vec3A,
+    max: Vec3A,
+}
+
+impl Bounds {
+    const EMPTY: Bounds = Bounds {
+        min: Vec3A::splat(f32::INFINITY),
+        max: Vec3A::splat(f32::NEG_INFINITY),
+    };
+
+    #[inline]
+    fn union(self, o: Bounds) -> Bounds {
+        Bounds {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    #[inline]
+    fn grow(self, p: Vec3A) -> Bounds {
+        Bounds {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    /// Half the surface area (the factor 2 cancels in every SAH comparison).
+    #[inline]
+    fn half_area(self) -> f32 {
+        let d = (self.max - self.min).max(Vec3A::ZERO);
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+
+    fn aabb(self) -> Aabb {
+        Aabb {
+            min: self.min.into(),
+            max: self.max.into(),
+        }
+    }
+}
 
 /// A node of the intermediate binary tree.
 pub(crate) enum BuildNode {
@@ -64,8 +113,8 @@ impl BuildNode {
 
 /// Read-only inputs shared by every recursion step.
 struct Ctx<'a> {
-    bounds: &'a [Aabb],
-    centroids: &'a [Vec3],
+    bounds: &'a [Bounds],
+    centroids: &'a [Vec3A],
     /// Ids below this are triangles, the rest spheres; a leaf never mixes them.
     triangle_count: u32,
     params: BuildParams,
@@ -79,13 +128,21 @@ pub(crate) fn build(
     triangle_count: u32,
     params: BuildParams,
 ) -> (Option<BuildNode>, Vec<u32>) {
+    assert!((2..=MAX_BINS).contains(&params.bins) || !params.sah);
     let mut order: Vec<u32> = (0..bounds.len() as u32).collect();
     if bounds.is_empty() {
         return (None, order);
     }
-    let centroids: Vec<Vec3> = bounds.iter().map(|b| b.center()).collect();
+    let bounds: Vec<Bounds> = bounds
+        .par_iter()
+        .map(|b| Bounds {
+            min: b.min.into(),
+            max: b.max.into(),
+        })
+        .collect();
+    let centroids: Vec<Vec3A> = bounds.par_iter().map(|b| (b.min + b.max) * 0.5).collect();
     let ctx = Ctx {
-        bounds,
+        bounds: &bounds,
         centroids: &centroids,
         triangle_count,
         params,
@@ -94,16 +151,31 @@ pub(crate) fn build(
     (Some(root), order)
 }
 
+/// Bounds of the primitives and of their centroids.
+fn scan_bounds(ctx: &Ctx, prims: &[u32]) -> (Bounds, Bounds) {
+    let scan = |prims: &[u32]| {
+        let (mut b, mut c) = (Bounds::EMPTY, Bounds::EMPTY);
+        for &p in prims {
+            b = b.union(ctx.bounds[p as usize]);
+            c = c.grow(ctx.centroids[p as usize]);
+        }
+        (b, c)
+    };
+    if prims.len() > PARALLEL_SCAN {
+        prims.par_chunks(PARALLEL_SCAN / 4).map(scan).reduce(
+            || (Bounds::EMPTY, Bounds::EMPTY),
+            |a, b| (a.0.union(b.0), a.1.union(b.1)),
+        )
+    } else {
+        scan(prims)
+    }
+}
+
 fn build_node(ctx: &Ctx, prims: &mut [u32], offset: usize, depth: usize) -> BuildNode {
     let n = prims.len();
-    let mut bounds = Aabb::EMPTY;
-    let mut cbounds = Aabb::EMPTY;
-    for &p in prims.iter() {
-        bounds = bounds.union(&ctx.bounds[p as usize]);
-        cbounds.grow(ctx.centroids[p as usize]);
-    }
+    let (bounds, cbounds) = scan_bounds(ctx, prims);
 
-    let mid = match choose_split(ctx, prims, &bounds, &cbounds, depth) {
+    let mid = match choose_split(ctx, prims, bounds, cbounds, depth) {
         Some(mid) => mid,
         None => return make_leaf(ctx, prims, offset, bounds),
     };
@@ -121,8 +193,32 @@ fn build_node(ctx: &Ctx, prims: &mut [u32], offset: usize, depth: usize) -> Buil
         )
     };
     BuildNode::Inner {
-        bounds,
+        bounds: bounds.aabb(),
         children: Box::new([l, r]),
+    }
+}
+
+/// Per-axis bin boxes and primitive counts.
+#[derive(Clone, Copy)]
+struct Bins {
+    bounds: [[Bounds; MAX_BINS]; 3],
+    count: [[u32; MAX_BINS]; 3],
+}
+
+impl Bins {
+    const EMPTY: Bins = Bins {
+        bounds: [[Bounds::EMPTY; MAX_BINS]; 3],
+        count: [[0; MAX_BINS]; 3],
+    };
+
+    fn merge(mut self, o: &Bins) -> Bins {
+        for a in 0..3 {
+            for k in 0..MAX_BINS {
+                self.bounds[a][k] = self.bounds[a][k].union(o.bounds[a][k]);
+                self.count[a][k] += o.count[a][k];
+            }
+        }
+        self
     }
 }
 
@@ -131,8 +227,8 @@ fn build_node(ctx: &Ctx, prims: &mut [u32], offset: usize, depth: usize) -> Buil
 fn choose_split(
     ctx: &Ctx,
     prims: &mut [u32],
-    bounds: &Aabb,
-    cbounds: &Aabb,
+    bounds: Bounds,
+    cbounds: Bounds,
     depth: usize,
 ) -> Option<usize> {
     let n = prims.len();
@@ -140,8 +236,8 @@ fn choose_split(
     if n <= 1 {
         return None;
     }
-    let extent = cbounds.diagonal();
-    let axis = longest_axis(extent);
+    let extent = cbounds.max - cbounds.min;
+    let axis = extent.max_position();
     // All centroids coincide: no plane separates them. Small sets become a
     // leaf; large ones are halved arbitrarily to respect `max_leaf`.
     if extent[axis] <= 0.0 {
@@ -156,7 +252,7 @@ fn choose_split(
         if n <= p.max_leaf {
             return None;
         }
-        let plane = cbounds.center()[axis];
+        let plane = 0.5 * (cbounds.min[axis] + cbounds.max[axis]);
         let mid = partition(prims, |id| ctx.centroids[id as usize][axis] < plane);
         return if mid == 0 || mid == n {
             Some(object_median(ctx, prims, axis))
@@ -168,25 +264,37 @@ fn choose_split(
     // Binned SAH. Costs are in units of one primitive test, scaled by the
     // parent's surface area (which cancels when comparing the options).
     let bins = p.bins;
-    let mut bin_bounds = [[Aabb::EMPTY; MAX_BINS]; 3];
-    let mut bin_count = [[0u32; MAX_BINS]; 3];
-    let scale = Vec3::select(
-        extent.cmpgt(Vec3::ZERO),
-        Vec3::splat(bins as f32) / extent,
-        Vec3::ZERO,
+    // Axes without extent get scale 0: everything lands in bin 0 and no
+    // split along them is ever valid (one side would be empty).
+    let scale = Vec3A::select(
+        extent.cmpgt(Vec3A::ZERO),
+        Vec3A::splat(bins as f32 * (1.0 - f32::EPSILON)) / extent,
+        Vec3A::ZERO,
     );
-    let bin_of = |c: f32, axis: usize| -> usize {
-        (((c - cbounds.min[axis]) * scale[axis]) as usize).min(bins - 1)
+    let bin_index = |c: Vec3A| -> [usize; 3] {
+        let k = ((c - cbounds.min) * scale).min(Vec3A::splat((bins - 1) as f32));
+        [k.x as usize, k.y as usize, k.z as usize]
     };
-    for &id in prims.iter() {
-        let c = ctx.centroids[id as usize];
-        let b = &ctx.bounds[id as usize];
-        for a in 0..3 {
-            let k = bin_of(c[a], a);
-            bin_count[a][k] += 1;
-            bin_bounds[a][k] = bin_bounds[a][k].union(b);
+    let fill = |prims: &[u32]| {
+        let mut bin = Bins::EMPTY;
+        for &id in prims {
+            let k = bin_index(ctx.centroids[id as usize]);
+            let b = ctx.bounds[id as usize];
+            for a in 0..3 {
+                bin.count[a][k[a]] += 1;
+                bin.bounds[a][k[a]] = bin.bounds[a][k[a]].union(b);
+            }
         }
-    }
+        bin
+    };
+    let bin = if n > PARALLEL_SCAN {
+        prims
+            .par_chunks(PARALLEL_SCAN / 4)
+            .map(fill)
+            .reduce(|| Bins::EMPTY, |a, b| a.merge(&b))
+    } else {
+        fill(prims)
+    };
 
     let group_cost = |count: u32| -> f32 { count.div_ceil(p.lanes as u32) as f32 * p.lanes as f32 };
     let mut best = (f32::INFINITY, 0usize, 0usize); // (cost, axis, split bin)
@@ -196,33 +304,33 @@ fn choose_split(
         }
         // Sweep from the right, remembering the area·count of every suffix.
         let mut right_cost = [0.0f32; MAX_BINS];
-        let mut acc = Aabb::EMPTY;
+        let mut acc = Bounds::EMPTY;
         let mut count = 0;
         for k in (1..bins).rev() {
-            acc = acc.union(&bin_bounds[a][k]);
-            count += bin_count[a][k];
-            right_cost[k] = acc.surface_area() * group_cost(count);
+            acc = acc.union(bin.bounds[a][k]);
+            count += bin.count[a][k];
+            right_cost[k] = acc.half_area() * group_cost(count);
         }
-        let mut acc = Aabb::EMPTY;
+        let mut acc = Bounds::EMPTY;
         let mut count = 0;
         for k in 0..bins - 1 {
-            acc = acc.union(&bin_bounds[a][k]);
-            count += bin_count[a][k];
-            let cost = acc.surface_area() * group_cost(count) + right_cost[k + 1];
+            acc = acc.union(bin.bounds[a][k]);
+            count += bin.count[a][k];
+            let cost = acc.half_area() * group_cost(count) + right_cost[k + 1];
             if cost < best.0 {
                 best = (cost, a, k + 1);
             }
         }
     }
 
-    let area = bounds.surface_area();
+    let area = bounds.half_area();
     let split_cost = p.traversal_cost * area + best.0;
     let leaf_cost = area * group_cost(n as u32);
     if n <= p.max_leaf && leaf_cost <= split_cost {
         return None;
     }
     let (_, a, k) = best;
-    let mid = partition(prims, |id| bin_of(ctx.centroids[id as usize][a], a) < k);
+    let mid = partition(prims, |id| bin_index(ctx.centroids[id as usize])[a] < k);
     if mid == 0 || mid == n {
         Some(object_median(ctx, prims, axis))
     } else {
@@ -231,17 +339,7 @@ fn choose_split(
 }
 
 /// Upper bound on `BuildParams::bins`.
-pub(crate) const MAX_BINS: usize = 64;
-
-fn longest_axis(v: Vec3) -> usize {
-    if v.x >= v.y && v.x >= v.z {
-        0
-    } else if v.y >= v.z {
-        1
-    } else {
-        2
-    }
-}
+pub(crate) const MAX_BINS: usize = 32;
 
 /// Splits at the median centroid along `axis` (`n / 2` on each side).
 fn object_median(ctx: &Ctx, prims: &mut [u32], axis: usize) -> usize {
@@ -270,23 +368,23 @@ fn partition(prims: &mut [u32], pred: impl Fn(u32) -> bool) -> usize {
 
 /// A leaf, or two leaves if the primitives mix triangles and spheres (so
 /// every leaf has one kind and traversal never branches per primitive).
-fn make_leaf(ctx: &Ctx, prims: &mut [u32], offset: usize, bounds: Aabb) -> BuildNode {
+fn make_leaf(ctx: &Ctx, prims: &mut [u32], offset: usize, bounds: Bounds) -> BuildNode {
     let t = ctx.triangle_count;
     let tris = partition(prims, |id| id < t);
     if tris == 0 || tris == prims.len() {
         return BuildNode::Leaf {
-            bounds,
+            bounds: bounds.aabb(),
             start: offset as u32,
             count: prims.len() as u32,
         };
     }
     let leaf = |part: &[u32], start: usize| {
-        let mut b = Aabb::EMPTY;
+        let mut b = Bounds::EMPTY;
         for &id in part {
-            b = b.union(&ctx.bounds[id as usize]);
+            b = b.union(ctx.bounds[id as usize]);
         }
         BuildNode::Leaf {
-            bounds: b,
+            bounds: b.aabb(),
             start: start as u32,
             count: part.len() as u32,
         }
@@ -294,7 +392,7 @@ fn make_leaf(ctx: &Ctx, prims: &mut [u32], offset: usize, bounds: Aabb) -> Build
     let l = leaf(&prims[..tris], offset);
     let r = leaf(&prims[tris..], offset + tris);
     BuildNode::Inner {
-        bounds,
+        bounds: bounds.aabb(),
         children: Box::new([l, r]),
     }
 }
@@ -302,6 +400,7 @@ fn make_leaf(ctx: &Ctx, prims: &mut [u32], offset: usize, bounds: Aabb) -> Build
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     fn count_leaves(node: &BuildNode, order: &[u32], seen: &mut Vec<u32>) {
         match node {
