@@ -21,6 +21,8 @@ pub struct LightSample {
     pub t_max: f32,
     /// Incident radiance divided by the solid-angle pdf.
     pub weight: Vec3,
+    /// Cosine between the surface normal and the direction to the light.
+    pub cos_surface: f32,
 }
 
 #[derive(Clone, Debug)]
@@ -81,17 +83,23 @@ impl LightSource {
             } => {
                 let d = *position - p;
                 let dist2 = d.length_squared();
-                (dist2 > 0.0).then(|| LightSample {
+                let cos_surface = n.dot(d) / dist2.sqrt();
+                (dist2 > 0.0 && cos_surface > 0.0).then(|| LightSample {
                     direction: d,
                     t_max: 1.0,
                     weight: *intensity / dist2,
+                    cos_surface,
                 })
             }
-            LightSource::Directional { to_light, radiance } => Some(LightSample {
-                direction: *to_light,
-                t_max: f32::INFINITY,
-                weight: *radiance,
-            }),
+            LightSource::Directional { to_light, radiance } => {
+                let cos_surface = n.dot(*to_light);
+                (cos_surface > 0.0).then_some(LightSample {
+                    direction: *to_light,
+                    t_max: f32::INFINITY,
+                    weight: *radiance,
+                    cos_surface,
+                })
+            }
             LightSource::Rectangle {
                 center,
                 normal,
@@ -102,11 +110,7 @@ impl LightSource {
             } => {
                 let q = *center + (u - 0.5) * *dim_x + (v - 0.5) * *dim_y;
                 // One-sided: light leaves toward `normal` only.
-                let cos_light = normal.dot((p - q).normalize_or_zero());
-                if cos_light <= 0.0 {
-                    return None;
-                }
-                Some(connect(p, q, *normal, cos_light, *area, *radiance))
+                connect(p, n, q, *normal, *area, *radiance)
             }
             LightSource::Hemisphere { radiance } => {
                 // Cosine-weighted about the surface normal; only upward directions see the sky.
@@ -119,13 +123,14 @@ impl LightSource {
                     direction: d,
                     t_max: f32::INFINITY,
                     weight: *radiance * (std::f32::consts::PI / cos),
+                    cos_surface: cos,
                 })
             }
             LightSource::Sphere {
                 center,
                 radius,
                 radiance,
-            } => sample_sphere(p, *center, *radius, *radiance, u, v),
+            } => sample_sphere(p, n, *center, *radius, *radiance, u, v),
             LightSource::Mesh {
                 triangles,
                 radiance,
@@ -137,13 +142,10 @@ impl LightSource {
                 // Uniform point on the triangle (square-root warp).
                 let su = u.sqrt();
                 let q = a * (1.0 - su) + b * (su * (1.0 - v)) + c * (su * v);
+                // Two-sided: the normal that faces p.
                 let ng = (b - a).cross(c - a).normalize_or_zero();
-                let cos_light = ng.dot((p - q).normalize_or_zero()).abs();
-                if cos_light <= 0.0 {
-                    return None;
-                }
                 let facing = if ng.dot(p - q) >= 0.0 { ng } else { -ng };
-                Some(connect(p, q, facing, cos_light, *total_area, radiance[i]))
+                connect(p, n, q, facing, *total_area, radiance[i])
             }
         }
     }
@@ -154,6 +156,7 @@ impl LightSource {
 /// inside (pdf = 1 / 4π). The shadow ray ends just before the surface.
 fn sample_sphere(
     p: Vec3,
+    n: Vec3,
     center: Vec3,
     radius: f32,
     radiance: Vec3,
@@ -209,32 +212,43 @@ fn sample_sphere(
         -n_light
     };
     let end = offset_origin(hit, facing);
-    Some(LightSample {
+    let cos_surface = n.dot(dir);
+    (cos_surface > 0.0).then(|| LightSample {
         direction: end - p,
         t_max: 1.0,
         weight: radiance / pdf,
+        cos_surface,
     })
 }
 
-/// A connection to point `q` on an area emitter whose normal `n_light`
-/// faces `p`: pdf in solid angle = d² / (area · cos θ_light).
+/// A connection from `p` (surface normal `n`) to point `q` on an area
+/// emitter of normal `n_light`, which emits only toward its side:
+/// pdf in solid angle = d² / (area · cos θ_light). One square root and one
+/// division serve both cosines and the pdf.
 fn connect(
     p: Vec3,
+    n: Vec3,
     q: Vec3,
     n_light: Vec3,
-    cos_light: f32,
     area: f32,
     radiance: Vec3,
-) -> LightSample {
+) -> Option<LightSample> {
+    let d = q - p;
+    let dist2 = d.length_squared();
+    let inv_dist = dist2.sqrt().recip();
+    let cos_light = -n_light.dot(d) * inv_dist;
+    let cos_surface = n.dot(d) * inv_dist;
+    if !(cos_light > 0.0 && cos_surface > 0.0) {
+        return None;
+    }
     // End the shadow ray just in front of the emitter so it cannot hit it.
     let end = offset_origin(q, n_light);
-    let d = q - p;
-    let pdf = d.length_squared() / (area * cos_light);
-    LightSample {
+    Some(LightSample {
         direction: end - p,
         t_max: 1.0,
-        weight: radiance / pdf,
-    }
+        weight: radiance * (area * cos_light * inv_dist * inv_dist),
+        cos_surface,
+    })
 }
 
 /// Every light source of a scene.

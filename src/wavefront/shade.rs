@@ -181,11 +181,7 @@ fn direct_lights(
             let Some(s) = light.sample(p, n, u, v, w) else {
                 continue;
             };
-            let cos = n.dot(s.direction.normalize_or_zero());
-            if cos <= 0.0 {
-                continue;
-            }
-            let contribution = beta * s.weight * (cos * inv_count);
+            let contribution = beta * s.weight * (s.cos_surface * inv_count);
             if contribution.max_element() > 0.0 {
                 shadow.push(i, p, s.direction, s.t_max, contribution);
             }
