@@ -45,6 +45,8 @@ pub struct TileFilm {
     pub tile: Tile,
     /// Sum of the radiance samples.
     pub sum: Vec<Vec3>,
+    /// Sum of their squares, per channel (for the variance of the mean).
+    pub sum_sq: Vec<Vec3>,
     /// Number of samples taken.
     pub count: Vec<u32>,
     /// Sums of the samples' illuminance and of its square (adaptive sampling).
@@ -60,6 +62,7 @@ impl TileFilm {
         TileFilm {
             tile,
             sum: vec![Vec3::ZERO; n],
+            sum_sq: vec![Vec3::ZERO; n],
             count: vec![0; n],
             illum_sum: vec![0.0; n],
             illum_sq_sum: vec![0.0; n],
@@ -72,6 +75,7 @@ impl TileFilm {
     pub fn add(&mut self, i: usize, radiance: Vec3) {
         let x = illuminance(radiance) as f64;
         self.sum[i] += radiance;
+        self.sum_sq[i] += radiance * radiance;
         self.count[i] += 1;
         self.illum_sum[i] += x;
         self.illum_sq_sum[i] += x * x;
@@ -91,6 +95,9 @@ pub struct Image {
     pub height: u32,
     /// Linear RGB, row-major, row 0 at the top.
     pub pixels: Vec<Vec3>,
+    /// Estimated variance of each pixel's mean, per channel: s² / n with
+    /// s² the unbiased sample variance (0 with fewer than two samples).
+    pub variance: Vec<Vec3>,
     pub samples: Vec<u32>,
     pub aux: Vec<f32>,
 }
@@ -102,6 +109,7 @@ impl Image {
             width,
             height,
             pixels: vec![Vec3::ZERO; n],
+            variance: vec![Vec3::ZERO; n],
             samples: vec![0; n],
             aux: vec![0.0; n],
         }
@@ -115,8 +123,15 @@ impl Image {
                 let local = (ty * t.width + tx) as usize;
                 let global = ((t.y0 + ty) * self.width + t.x0 + tx) as usize;
                 let n = film.count[local];
-                self.pixels[global] = if n > 0 {
+                let mean = if n > 0 {
                     film.sum[local] / n as f32
+                } else {
+                    Vec3::ZERO
+                };
+                self.pixels[global] = mean;
+                self.variance[global] = if n > 1 {
+                    let nf = n as f32;
+                    ((film.sum_sq[local] - nf * mean * mean) / (nf - 1.0)).max(Vec3::ZERO) / nf
                 } else {
                     Vec3::ZERO
                 };
