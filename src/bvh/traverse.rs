@@ -189,7 +189,9 @@ pub(crate) fn closest(
         return best;
     }
     let rb = RayBox::new(o, d);
-    let tri = RayTri::new(o, d);
+    // The triangle test's shear is set up at the first triangle leaf: most
+    // camera rays of a typical scene never get that far.
+    let mut tri: Option<RayTri> = None;
     let mut sp = 0usize;
     let mut current = scene.root;
     loop {
@@ -232,7 +234,7 @@ pub(crate) fn closest(
             } else {
                 leaf_triangles(
                     &scene.tri_groups[first..first + count],
-                    &tri,
+                    tri.get_or_insert_with(|| RayTri::new(o, d)),
                     &mut best,
                     work,
                     true,
@@ -268,7 +270,7 @@ pub(crate) fn any(
         return false;
     }
     let rb = RayBox::new(o, d);
-    let tri = RayTri::new(o, d);
+    let mut tri: Option<RayTri> = None;
     let mut sp = 0usize;
     stack[0].child = scene.root.0;
     sp += 1;
@@ -295,9 +297,10 @@ pub(crate) fn any(
                     }
                 }
             } else {
+                let tri = tri.get_or_insert_with(|| RayTri::new(o, d));
                 for g in &scene.tri_groups[first..first + count] {
                     work.prims += g.len();
-                    if intersect_group(g, &tri, t_max).mask != 0 {
+                    if intersect_group(g, tri, t_max).mask != 0 {
                         return true;
                     }
                 }
