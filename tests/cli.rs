@@ -1,0 +1,229 @@
+//! The `wavepath` command as a user runs it.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use wavepath::film::output::read_image;
+
+fn wavepath(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_wavepath"))
+        .args(args)
+        .output()
+        .expect("run wavepath")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    let _ = std::fs::remove_file(&path);
+    path
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn renders_the_shipped_scene_to_png_and_exr() {
+    let png = scratch("cornell.png");
+    let exr = scratch("cornell.exr");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    for out in [&png, &exr] {
+        let o = wavepath(&[
+            "-q",
+            "-s",
+            "2",
+            "-m",
+            "1",
+            "-r",
+            "480",
+            "360",
+            "-f",
+            out.to_str().unwrap(),
+            scene,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let a = read_image(&png).unwrap();
+    let b = read_image(&exr).unwrap();
+    assert_eq!((a.width, a.height), (480, 360));
+    assert_eq!((b.width, b.height), (480, 360));
+    assert!(
+        b.pixels
+            .iter()
+            .all(|p| p.is_finite() && p.min_element() >= 0.0)
+    );
+    // Framed like the reference's Cornell boxes: the light near the top
+    // centre, the red wall on the left, the blue wall on the right.
+    let light = b.at(240, 40);
+    assert!(light.x > 5.0, "light pixel {light}");
+    let (left, right) = (b.at(30, 180), b.at(450, 180));
+    assert!(left.x > 2.0 * left.z, "left wall is not red: {left}");
+    assert!(right.z > 2.0 * right.x, "right wall is not blue: {right}");
+    // Adaptive sampling (the default) writes the sample-rate image too.
+    assert!(scratch_exists("cornell_rate.png"));
+}
+
+fn scratch_exists(name: &str) -> bool {
+    Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("cli")
+        .join(name)
+        .is_file()
+}
+
+#[test]
+fn the_built_in_scene_renders_with_no_arguments_but_output() {
+    let out = scratch("builtin.png");
+    let o = wavepath(&["-q", "-r", "32", "24", "-f", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.is_file());
+}
+
+#[test]
+fn normals_view_works_for_every_cs184_scene() {
+    let Some(dir) = common::cs184_dir() else {
+        return;
+    };
+    let out = scratch("normals.png");
+    for scene in common::dae_files(&dir) {
+        let o = wavepath(&[
+            "-q",
+            "--shading",
+            "normals",
+            "-s",
+            "1",
+            "-r",
+            "480",
+            "360",
+            "-f",
+            out.to_str().unwrap(),
+            scene.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}: {}", scene.display(), stderr(&o));
+        let image = read_image(&out).unwrap();
+        let lit = image
+            .pixels
+            .iter()
+            .filter(|p| p.max_element() > 0.0)
+            .count();
+        assert!(
+            lit > 480 * 360 / 50,
+            "{}: the scene is barely in view ({lit} pixels)",
+            scene.display()
+        );
+    }
+}
+
+#[test]
+fn nonsense_values_are_refused_with_a_usage_hint() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    for args in [
+        vec!["-s", "0", scene],
+        vec!["-r", "0", "100", scene],
+        vec!["-a", "32", "-1", scene],
+        vec!["-a", "0", "0.05", scene],
+        vec!["-l", "0", scene],
+        vec!["-t", "0", scene],
+        vec!["-b", "-1", scene],
+        vec!["-f", "out.jpg", scene],
+        vec!["--shading", "wireframe", scene],
+        vec!["-e", "sky.exr", scene],
+    ] {
+        let o = wavepath(&args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.starts_with("error: "), "{args:?}: {err}");
+        assert!(err.contains("--help"), "{args:?}: no usage hint: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+}
+
+#[test]
+fn a_missing_scene_is_one_line_and_exit_1() {
+    let o = wavepath(&["-q", "no/such/scene.dae"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("no/such/scene.dae"), "{err}");
+}
+
+#[test]
+fn stats_report_every_stage() {
+    let out = scratch("stats.png");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    let o = wavepath(&[
+        "-q",
+        "--stats",
+        "-s",
+        "4",
+        "-m",
+        "3",
+        "-r",
+        "32",
+        "24",
+        "-f",
+        out.to_str().unwrap(),
+        scene,
+    ]);
+    assert!(o.status.success());
+    let err = stderr(&o);
+    for stage in [
+        "generate",
+        "intersect",
+        "shade",
+        "shadow-test",
+        "compact",
+        "nodes visited/ray",
+    ] {
+        assert!(err.contains(stage), "--stats lacks {stage}: {err}");
+    }
+    // No -H: the probe stage has no work and is reported as skipped.
+    assert!(
+        err.lines()
+            .any(|l| l.starts_with("probe") && l.contains("skipped")),
+        "{err}"
+    );
+}
+
+#[test]
+fn ctrl_c_writes_what_was_rendered() {
+    let out = scratch("interrupted.exr");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    // Far more work than the test waits for.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_wavepath"))
+        .args([
+            "-q",
+            "-s",
+            "100000",
+            "--no-adaptive",
+            "-m",
+            "5",
+            "-r",
+            "320",
+            "240",
+            "-f",
+        ])
+        .arg(&out)
+        .arg(scene)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    assert!(stderr(&o).contains("interrupted"), "{}", stderr(&o));
+    let image = read_image(&out).unwrap();
+    assert!(image.pixels.iter().all(|p| p.is_finite()));
+    assert!(
+        image.pixels.iter().any(|p| p.max_element() > 0.0),
+        "nothing was kept"
+    );
+}
