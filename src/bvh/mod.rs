@@ -111,6 +111,8 @@ pub struct Bvh {
     tri_groups: Vec<TriGroup>,
     spheres: Vec<PackedSphere>,
     root: Option<ChildRef>,
+    /// Bounds of everything (min, max corner), for the batch-level cull.
+    bounds: [[f32; 3]; 2],
     depth: usize,
     triangle_count: usize,
     sphere_count: usize,
@@ -128,6 +130,7 @@ impl Bvh {
             tri_groups: Vec::new(),
             spheres: Vec::new(),
             root: None,
+            bounds: [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]],
             depth: 0,
             triangle_count: tri_count,
             sphere_count,
@@ -183,6 +186,10 @@ impl Bvh {
         bvh.spheres = flat.spheres;
         bvh.root = flat.root;
         bvh.depth = flat.depth;
+        if let Some(root) = root {
+            let b = root.bounds();
+            bvh.bounds = [b.min.to_array(), b.max.to_array()];
+        }
         bvh
     }
 
@@ -229,29 +236,49 @@ impl Bvh {
         let (mut nodes, mut prims) = (0u64, 0u64);
         let scene = self.scene();
         let mut stack = traverse::new_stack();
-        for i in 0..n {
-            let o = rays.origin(i);
-            let d = rays.direction(i);
-            let t_max = rays.t_max[i];
-            let mut work = traverse::Work::default();
-            let c = match (&scene, self.accel) {
-                (_, Accel::None) => {
-                    traverse::closest_brute(&self.tri_groups, &self.spheres, o, d, t_max, &mut work)
-                }
-                (Some(scene), _) => traverse::closest(scene, &mut stack, o, d, t_max, &mut work),
-                (None, _) => continue,
+        let src = ray_src(rays);
+        for start in (0..n).step_by(WIDTH) {
+            // Rays that miss the scene's bounds skip traversal altogether
+            // (counted as one node visit: the box test they did get).
+            let candidates = match (&scene, self.accel) {
+                (_, Accel::None) => u32::MAX,
+                (Some(_), _) => traverse::may_hit(&self.bounds, &src, start),
+                (None, _) => 0,
             };
-            if c.prim != crate::ray::NO_HIT {
-                hits.t[i] = c.t;
-                hits.prim[i] = c.prim;
-                hits.u[i] = c.u;
-                hits.v[i] = c.v;
+            for i in start..(start + WIDTH).min(n) {
+                let mut work = traverse::Work::default();
+                if candidates & (1 << (i - start)) == 0 {
+                    work.nodes = 1;
+                } else {
+                    let o = rays.origin(i);
+                    let d = rays.direction(i);
+                    let t_max = rays.t_max[i];
+                    let c = match &scene {
+                        Some(scene) if self.accel != Accel::None => {
+                            traverse::closest(scene, &mut stack, o, d, t_max, &mut work)
+                        }
+                        _ => traverse::closest_brute(
+                            &self.tri_groups,
+                            &self.spheres,
+                            o,
+                            d,
+                            t_max,
+                            &mut work,
+                        ),
+                    };
+                    if c.prim != crate::ray::NO_HIT {
+                        hits.t[i] = c.t;
+                        hits.prim[i] = c.prim;
+                        hits.u[i] = c.u;
+                        hits.v[i] = c.v;
+                    }
+                }
+                if let Some(cost) = cost.as_deref_mut() {
+                    cost[i] = work.nodes + work.prims;
+                }
+                nodes += work.nodes as u64;
+                prims += work.prims as u64;
             }
-            if let Some(cost) = cost.as_deref_mut() {
-                cost[i] = work.nodes + work.prims;
-            }
-            nodes += work.nodes as u64;
-            prims += work.prims as u64;
         }
         stats.rays += n as u64;
         stats.nodes_visited += nodes;
@@ -267,20 +294,38 @@ impl Bvh {
         let (mut nodes, mut prims) = (0u64, 0u64);
         let scene = self.scene();
         let mut stack = traverse::new_stack();
-        for (i, occluded) in occluded.iter_mut().enumerate() {
-            let o = rays.origin(i);
-            let d = rays.direction(i);
-            let t_max = rays.t_max[i];
-            let mut work = traverse::Work::default();
-            *occluded = match (&scene, self.accel) {
-                (_, Accel::None) => {
-                    traverse::any_brute(&self.tri_groups, &self.spheres, o, d, t_max, &mut work)
-                }
-                (Some(scene), _) => traverse::any(scene, &mut stack, o, d, t_max, &mut work),
-                (None, _) => false,
+        let src = ray_src(rays);
+        for start in (0..n).step_by(WIDTH) {
+            let candidates = match (&scene, self.accel) {
+                (_, Accel::None) => u32::MAX,
+                (Some(_), _) => traverse::may_hit(&self.bounds, &src, start),
+                (None, _) => 0,
             };
-            nodes += work.nodes as u64;
-            prims += work.prims as u64;
+            for i in start..(start + WIDTH).min(n) {
+                let mut work = traverse::Work::default();
+                if candidates & (1 << (i - start)) == 0 {
+                    work.nodes = 1;
+                } else {
+                    let o = rays.origin(i);
+                    let d = rays.direction(i);
+                    let t_max = rays.t_max[i];
+                    occluded[i] = match &scene {
+                        Some(scene) if self.accel != Accel::None => {
+                            traverse::any(scene, &mut stack, o, d, t_max, &mut work)
+                        }
+                        _ => traverse::any_brute(
+                            &self.tri_groups,
+                            &self.spheres,
+                            o,
+                            d,
+                            t_max,
+                            &mut work,
+                        ),
+                    };
+                }
+                nodes += work.nodes as u64;
+                prims += work.prims as u64;
+            }
         }
         stats.rays += n as u64;
         stats.nodes_visited += nodes;
@@ -318,6 +363,14 @@ impl Bvh {
     /// partly filled leaf groups is the difference).
     pub fn triangle_group_count(&self) -> usize {
         self.tri_groups.len()
+    }
+}
+
+fn ray_src(rays: &Rays) -> traverse::Ray8Src<'_> {
+    traverse::Ray8Src {
+        org: [&rays.org_x, &rays.org_y, &rays.org_z],
+        dir: [&rays.dir_x, &rays.dir_y, &rays.dir_z],
+        t_max: &rays.t_max,
     }
 }
 

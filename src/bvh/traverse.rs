@@ -90,6 +90,44 @@ impl RayBox {
     }
 }
 
+/// Which of the (up to) [`WIDTH`] rays `start..` of `rays` may hit the box
+/// `bounds` (min, max corner) within `[0, t_max]`, as a bit mask.
+///
+/// This is the slab test of [`RayBox::test`] run across rays instead of
+/// across boxes, straight from the structure-of-arrays batch: a cheap
+/// filter that lets rays missing the whole scene (often most camera rays)
+/// skip the per-ray setup. It uses the same arithmetic as the per-ray test
+/// on a box that contains all children of the root, so it never rejects a
+/// ray the traversal would accept (IEEE operations are monotone).
+#[inline]
+pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], rays: &Ray8Src, start: usize) -> u32 {
+    let end = (start + WIDTH).min(rays.t_max.len());
+    let load = |v: &[f32]| Lanes::from(&v[start..end]);
+    let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
+    let mut t_enter = Lanes::ZERO;
+    let mut t_exit = Lanes::splat(f32::INFINITY);
+    for axis in 0..3 {
+        let d = load(rays.dir[axis]);
+        let d = d
+            .simd_eq(Lanes::ZERO)
+            .select(Lanes::splat(1e-30).copysign(d), d);
+        let inv = Lanes::ONE / d;
+        let t0 = (Lanes::splat(bounds[0][axis]) - o[axis]) * inv;
+        let t1 = (Lanes::splat(bounds[1][axis]) - o[axis]) * inv;
+        t_enter = t_enter.fast_max(t0.fast_min(t1));
+        t_exit = t_exit.fast_min(t0.fast_max(t1));
+    }
+    let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(load(rays.t_max));
+    t_enter.simd_le(t_exit).to_bitmask() & ((1u32 << (end - start)) - 1)
+}
+
+/// The component arrays of a ray batch, as [`may_hit`] reads them.
+pub(crate) struct Ray8Src<'a> {
+    pub org: [&'a [f32]; 3],
+    pub dir: [&'a [f32]; 3],
+    pub t_max: &'a [f32],
+}
+
 /// Closest hit of one ray.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Closest {
