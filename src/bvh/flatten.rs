@@ -22,7 +22,7 @@ use glam::Vec3;
 use super::build::BuildNode;
 use super::sphere::PackedSphere;
 use super::triangle::TriGroup;
-use super::{Lanes, WIDTH};
+use super::{Lanes, TRI_WIDTH, WIDTH};
 use crate::scene::{Aabb, Geometry};
 
 /// One wide node: the bounds of up to [`WIDTH`] children, lane-wise.
@@ -232,10 +232,10 @@ impl Ctx<'_> {
     }
 }
 
-/// Packs triangles `prims` into groups of [`WIDTH`].
+/// Packs triangles `prims` into groups of [`TRI_WIDTH`].
 pub(crate) fn pack_triangles(prims: &[u32], geometry: &Geometry) -> Vec<TriGroup> {
     prims
-        .chunks(WIDTH)
+        .chunks(TRI_WIDTH)
         .map(|chunk| {
             let tris: Vec<([Vec3; 3], u32)> = chunk
                 .iter()

@@ -1,4 +1,4 @@
-//! Watertight ray/triangle intersection, [`WIDTH`] triangles at a time.
+//! Watertight ray/triangle intersection, [`TRI_WIDTH`] triangles at a time.
 //!
 //! This is the algorithm of Woop, Benthin and Wald, "Watertight Ray/Triangle
 //! Intersection" (JCGT 2013). The ray is turned into the +z axis of a sheared
@@ -21,31 +21,31 @@
 //! Rust never contracts `a * b - c * d` on its own, so the plain operators
 //! below are exactly what the proof needs.
 //!
-//! Triangles are stored as [`TriGroup`]s: the three vertices of [`WIDTH`]
+//! Triangles are stored as [`TriGroup`]s: the three vertices of [`TRI_WIDTH`]
 //! triangles, one SIMD register per vertex coordinate, so a group test is a
 //! straight run of vector arithmetic with no gathers.
 
 use glam::Vec3;
 
-use super::{Lanes, WIDTH};
+use super::{TRI_WIDTH, TriLanes};
 use crate::ray::NO_HIT;
 
-/// [`WIDTH`] triangles, structure of arrays. Unused lanes have NaN vertices
+/// [`TRI_WIDTH`] triangles, structure of arrays. Unused lanes have NaN vertices
 /// (every comparison fails, so they never hit) and id [`NO_HIT`].
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
 pub(crate) struct TriGroup {
     /// `v[vertex][axis]`, one lane per triangle.
-    pub v: [[Lanes; 3]; 3],
+    pub v: [[TriLanes; 3]; 3],
     /// Global primitive id per lane.
-    pub id: [u32; WIDTH],
+    pub id: [u32; TRI_WIDTH],
 }
 
 impl TriGroup {
     pub fn new(tris: &[([Vec3; 3], u32)]) -> TriGroup {
-        debug_assert!(tris.len() <= WIDTH);
-        let mut v = [[[f32::NAN; WIDTH]; 3]; 3];
-        let mut id = [NO_HIT; WIDTH];
+        debug_assert!(tris.len() <= TRI_WIDTH);
+        let mut v = [[[f32::NAN; TRI_WIDTH]; 3]; 3];
+        let mut id = [NO_HIT; TRI_WIDTH];
         for (lane, (verts, prim)) in tris.iter().enumerate() {
             for (k, p) in verts.iter().enumerate() {
                 v[k][0][lane] = p.x;
@@ -55,7 +55,7 @@ impl TriGroup {
             id[lane] = *prim;
         }
         TriGroup {
-            v: v.map(|vertex| vertex.map(Lanes::from)),
+            v: v.map(|vertex| vertex.map(TriLanes::from)),
             id,
         }
     }
@@ -108,10 +108,10 @@ impl RayTri {
 /// `t` and barycentric numerators/denominator.
 pub(crate) struct GroupHit {
     pub mask: u32,
-    pub t: Lanes,
-    pub v: Lanes,
-    pub w: Lanes,
-    pub det: Lanes,
+    pub t: TriLanes,
+    pub v: TriLanes,
+    pub w: TriLanes,
+    pub det: TriLanes,
 }
 
 /// Tests the ray against all triangles of `g`. A lane hits if the ray
@@ -120,14 +120,14 @@ pub(crate) struct GroupHit {
 pub(crate) fn intersect_group(g: &TriGroup, r: &RayTri, t_far: f32) -> GroupHit {
     let [kx, ky, kz] = r.k;
     let (ox, oy, oz) = (
-        Lanes::splat(r.o[0]),
-        Lanes::splat(r.o[1]),
-        Lanes::splat(r.o[2]),
+        TriLanes::splat(r.o[0]),
+        TriLanes::splat(r.o[1]),
+        TriLanes::splat(r.o[2]),
     );
     let (sx, sy, sz) = (
-        Lanes::splat(r.s[0]),
-        Lanes::splat(r.s[1]),
-        Lanes::splat(r.s[2]),
+        TriLanes::splat(r.s[0]),
+        TriLanes::splat(r.s[1]),
+        TriLanes::splat(r.s[2]),
     );
 
     // Vertices relative to the origin, then sheared so the ray is +z.
@@ -147,12 +147,12 @@ pub(crate) fn intersect_group(g: &TriGroup, r: &RayTri, t_far: f32) -> GroupHit 
 
     // Exact zeros: the ray passes (numerically) through an edge or vertex.
     // Redo those lanes in double precision, where the products are exact.
-    let zero = Lanes::ZERO;
+    let zero = TriLanes::ZERO;
     let any_zero = (u.simd_eq(zero) | v.simd_eq(zero) | w.simd_eq(zero)).to_bitmask();
     if any_zero != 0 {
         refine_edges_f64(
             any_zero,
-            [ax, ay, bx, by, cx, cy].map(Lanes::to_array),
+            [ax, ay, bx, by, cx, cy].map(TriLanes::to_array),
             &mut u,
             &mut v,
             &mut w,
@@ -166,7 +166,7 @@ pub(crate) fn intersect_group(g: &TriGroup, r: &RayTri, t_far: f32) -> GroupHit 
     let det = u + v + w;
     let t_num = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
     let t = t_num / det;
-    let ok = !(neg & pos) & det.simd_ne(zero) & t.simd_ge(zero) & t.simd_le(Lanes::splat(t_far));
+    let ok = !(neg & pos) & det.simd_ne(zero) & t.simd_ge(zero) & t.simd_le(TriLanes::splat(t_far));
     GroupHit {
         mask: ok.to_bitmask(),
         t,
@@ -179,7 +179,7 @@ pub(crate) fn intersect_group(g: &TriGroup, r: &RayTri, t_far: f32) -> GroupHit 
 /// Recomputes the edge functions of the lanes in `lanes` in f64.
 #[cold]
 #[inline(never)]
-fn refine_edges_f64(lanes: u32, p: [[f32; WIDTH]; 6], u: &mut Lanes, v: &mut Lanes, w: &mut Lanes) {
+fn refine_edges_f64(lanes: u32, p: [[f32; TRI_WIDTH]; 6], u: &mut TriLanes, v: &mut TriLanes, w: &mut TriLanes) {
     let (mut uu, mut vv, mut ww) = (u.to_array(), v.to_array(), w.to_array());
     let [ax, ay, bx, by, cx, cy] = p;
     let mut bits = lanes;
@@ -198,7 +198,7 @@ fn refine_edges_f64(lanes: u32, p: [[f32; WIDTH]; 6], u: &mut Lanes, v: &mut Lan
         vv[i] = (ax * cy - ay * cx) as f32;
         ww[i] = (bx * ay - by * ax) as f32;
     }
-    *u = Lanes::from(uu);
-    *v = Lanes::from(vv);
-    *w = Lanes::from(ww);
+    *u = TriLanes::from(uu);
+    *v = TriLanes::from(vv);
+    *w = TriLanes::from(ww);
 }
