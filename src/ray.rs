@@ -47,13 +47,34 @@ impl Rays {
     }
 
     pub fn clear(&mut self) {
-        self.org_x.clear();
-        self.org_y.clear();
-        self.org_z.clear();
-        self.dir_x.clear();
-        self.dir_y.clear();
-        self.dir_z.clear();
-        self.t_max.clear();
+        self.truncate(0);
+    }
+
+    /// Copies ray `from` over ray `to`.
+    #[inline]
+    pub fn copy_within(&mut self, from: usize, to: usize) {
+        for component in self.components_mut() {
+            component[to] = component[from];
+        }
+    }
+
+    /// Keeps the first `n` rays.
+    pub fn truncate(&mut self, n: usize) {
+        for component in self.components_mut() {
+            component.truncate(n);
+        }
+    }
+
+    fn components_mut(&mut self) -> [&mut Vec<f32>; 7] {
+        [
+            &mut self.org_x,
+            &mut self.org_y,
+            &mut self.org_z,
+            &mut self.dir_x,
+            &mut self.dir_y,
+            &mut self.dir_z,
+            &mut self.t_max,
+        ]
     }
 
     pub fn push(&mut self, origin: Vec3, direction: Vec3, t_max: f32) {

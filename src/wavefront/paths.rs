@@ -75,14 +75,7 @@ impl Paths {
         self.depth[to] = self.depth[from];
         self.specular[to] = self.specular[from];
         self.alive[to] = self.alive[from];
-        let r = &mut self.rays;
-        r.org_x[to] = r.org_x[from];
-        r.org_y[to] = r.org_y[from];
-        r.org_z[to] = r.org_z[from];
-        r.dir_x[to] = r.dir_x[from];
-        r.dir_y[to] = r.dir_y[from];
-        r.dir_z[to] = r.dir_z[from];
-        r.t_max[to] = r.t_max[from];
+        self.rays.copy_within(from, to);
     }
 
     /// Keeps the first `n` paths.
@@ -94,14 +87,7 @@ impl Paths {
         self.depth.truncate(n);
         self.specular.truncate(n);
         self.alive.truncate(n);
-        let r = &mut self.rays;
-        r.org_x.truncate(n);
-        r.org_y.truncate(n);
-        r.org_z.truncate(n);
-        r.dir_x.truncate(n);
-        r.dir_y.truncate(n);
-        r.dir_z.truncate(n);
-        r.t_max.truncate(n);
+        self.rays.truncate(n);
     }
 
     /// Sets path `i`'s next ray.
