@@ -4,6 +4,7 @@
 //! and hands it back when done, so accumulation needs no locks.
 
 pub mod adaptive;
+pub mod metrics;
 pub mod output;
 
 use glam::Vec3;

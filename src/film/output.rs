@@ -95,6 +95,22 @@ pub fn write_png(image: &Image, path: &Path, curve: ToneCurve) -> Result<()> {
 }
 
 pub fn write_exr(image: &Image, path: &Path, with_rate: bool) -> Result<()> {
+    write_exr_channels(image, path, with_rate, false)
+}
+
+/// Names of the EXR channels holding each pixel's standard error (the
+/// square root of [`Image::variance`]), written by [`write_exr_with_error`].
+pub const STDERR_CHANNELS: [&str; 3] = ["stderr.R", "stderr.G", "stderr.B"];
+
+/// Writes an EXR with the per-pixel standard error of the mean as three
+/// more channels ([`STDERR_CHANNELS`]) and the sample counts as `samples`,
+/// so the file carries its own noise estimate (references for tests and
+/// `wavepath converge`). [`read_image`] reads them back into `variance`.
+pub fn write_exr_with_error(image: &Image, path: &Path) -> Result<()> {
+    write_exr_channels(image, path, true, true)
+}
+
+fn write_exr_channels(image: &Image, path: &Path, with_rate: bool, with_error: bool) -> Result<()> {
     use exr::prelude::*;
     let size = (image.width as usize, image.height as usize);
     // Non-finite radiance never reaches a file: it is written as 0.
@@ -115,6 +131,16 @@ pub fn write_exr(image: &Image, path: &Path, with_rate: bool) -> Result<()> {
     if with_rate {
         let samples = image.samples.iter().map(|&n| n as f32).collect();
         channels.push(AnyChannel::new("samples", FlatSamples::F32(samples)));
+    }
+    if with_error {
+        for (c, name) in STDERR_CHANNELS.iter().enumerate() {
+            let se = image
+                .variance
+                .iter()
+                .map(|v| v[c].max(0.0).sqrt())
+                .collect();
+            channels.push(AnyChannel::new(*name, FlatSamples::F32(se)));
+        }
     }
     let layer = Layer::new(
         size,
@@ -161,28 +187,11 @@ pub fn write_rate_png(image: &Image, path: &Path) -> Result<()> {
 }
 
 /// Reads an image written by [`write_image`] (or any RGB EXR/PNG) back as
-/// linear RGB; PNGs are decoded as sRGB.
+/// linear RGB; PNGs are decoded as sRGB. From an EXR, the optional
+/// `samples` and [`STDERR_CHANNELS`] channels fill `samples` and `variance`.
 pub fn read_image(path: &Path) -> Result<Image> {
     match Format::from_path(path)? {
-        Format::Exr => {
-            use exr::prelude::*;
-            let decoded = read_first_rgba_layer_from_file(
-                path,
-                |res, _| {
-                    let (w, h) = (res.width(), res.height());
-                    (w, vec![Vec3::ZERO; w * h])
-                },
-                |(w, px): &mut (usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                    px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b);
-                },
-            )
-            .with_context(|| format!("{}: cannot read EXR", path.display()))?;
-            let size = decoded.layer_data.size;
-            let (_, pixels) = decoded.layer_data.channel_data.pixels;
-            let mut image = super::Image::new(size.width() as u32, size.height() as u32);
-            image.pixels = pixels;
-            Ok(image)
-        }
+        Format::Exr => read_exr(path),
         Format::Png => {
             let rgb = image::open(path)
                 .with_context(|| format!("{}: cannot read PNG", path.display()))?
@@ -203,4 +212,57 @@ pub fn read_image(path: &Path) -> Result<Image> {
             Ok(image)
         }
     }
+}
+
+/// Reads the first layer of an EXR: R, G, B (or Y for grey) are required.
+fn read_exr(path: &Path) -> Result<Image> {
+    use exr::prelude::read_first_flat_layer_from_file;
+    let decoded = read_first_flat_layer_from_file(path)
+        .with_context(|| format!("{}: cannot read EXR", path.display()))?;
+    let layer = decoded.layer_data;
+    let (w, h) = (layer.size.width(), layer.size.height());
+    let find = |name: &str| -> Option<Vec<f32>> {
+        layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.eq_case_insensitive(name))
+            .map(|c| c.sample_data.values_as_f32().collect::<Vec<f32>>())
+    };
+    // Subsampled channels (e.g. chroma) have fewer samples than pixels.
+    if let Some(c) = layer
+        .channel_data
+        .list
+        .iter()
+        .find(|c| c.sample_data.len() != w * h)
+    {
+        bail!(
+            "{}: EXR channel {} is subsampled, which is not supported",
+            path.display(),
+            c.name
+        );
+    }
+    let grey = find("Y");
+    let rgb = match (find("R"), find("G"), find("B")) {
+        (Some(r), Some(g), Some(b)) => [r, g, b],
+        _ => match grey {
+            Some(y) => [y.clone(), y.clone(), y],
+            None => bail!("{}: EXR has no R, G, B (or Y) channels", path.display()),
+        },
+    };
+    let mut image = super::Image::new(w as u32, h as u32);
+    for (i, p) in image.pixels.iter_mut().enumerate() {
+        *p = Vec3::new(rgb[0][i], rgb[1][i], rgb[2][i]);
+    }
+    if let Some(n) = find("samples") {
+        for (dst, v) in image.samples.iter_mut().zip(n) {
+            *dst = v.max(0.0) as u32;
+        }
+    }
+    if let [Some(r), Some(g), Some(b)] = STDERR_CHANNELS.map(find) {
+        for (i, v) in image.variance.iter_mut().enumerate() {
+            *v = Vec3::new(r[i], g[i], b[i]).powf(2.0);
+        }
+    }
+    Ok(image)
 }
