@@ -13,7 +13,10 @@ use crate::integrator::{Bounces, View};
     name = "wavepath",
     version,
     about = "A data-oriented wavefront CPU path tracer for CS184-style COLLADA scenes",
-    after_help = "Example: wavepath -s 64 -l 4 -m 5 -r 480 360 -f cbox.png scenes/cornell.dae"
+    after_help = "Example: wavepath -s 64 -l 4 -m 5 -r 480 360 -f cbox.png scenes/cornell.dae\n\n\
+                  Tools (see `wavepath <tool> --help`):\n  \
+                  wavepath compare <image> <reference> [--diff err.png]   error metrics of EXR/PNG images\n  \
+                  wavepath converge [options] --ref ref.exr <scene.dae>    error vs time per estimator"
 )]
 pub struct Args {
     /// Scene file (.dae) [default: the built-in Cornell box, scenes/cornell.dae]

@@ -1,6 +1,14 @@
 //! The `wavepath` command: parse flags, load, build, render, write.
+//!
+//! `wavepath compare …` and `wavepath converge …` are dispatched on the
+//! first argument before the render flags are parsed, so that
+//! `wavepath [options] <scene.dae>` is unchanged (a scene file literally
+//! named `compare` is given as `./compare`).
 
 mod args;
+pub mod compare;
+pub mod converge;
+mod plot;
 mod report;
 
 use std::io::IsTerminal;
@@ -133,7 +141,13 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
 
 /// Runs the command; returns the process exit status.
 pub fn run() -> Result<i32> {
-    let args = Args::parse();
+    let mut argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    match argv.get(1).and_then(|a| a.to_str()) {
+        Some("compare") => return compare::run(argv.split_off(1)),
+        Some("converge") => return converge::run(argv.split_off(1)),
+        _ => {}
+    }
+    let args = Args::parse_from(argv);
     let (settings, output_path) = validate(&args);
     let chatty = !args.quiet;
 

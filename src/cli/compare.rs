@@ -1,0 +1,207 @@
+//! `wavepath compare <image> <reference>`: error metrics between two images.
+//!
+//! Why this exists: "is this render right, and how noisy is it?" needs a
+//! number, not a squint. This prints RMSE, relMSE, MAPE and max error per
+//! channel and overall (definitions in [`crate::film::metrics`]), a
+//! statistical same-mean test when both files carry per-pixel standard
+//! errors (EXRs from `wavepath converge --make-reference`), and with
+//! `--diff` writes a false-colour map of the per-pixel relative error.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::Parser;
+use glam::Vec3;
+
+use crate::film::Image;
+use crate::film::metrics::{self, REL_EPSILON};
+use crate::film::output::{self, Format};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "wavepath compare",
+    bin_name = "wavepath compare",
+    about = "Error metrics of an image against a reference (EXR or PNG)",
+    after_help = "relMSE = mean (x - ref)^2 / (ref^2 + 0.01) over pixels and channels; \
+                  MAPE = mean |x - ref| / (|ref| + 0.01), in percent.\n\
+                  PNGs are decoded as sRGB to linear values.\n\
+                  Example: wavepath compare render.exr reference.exr --diff err.png"
+)]
+pub struct CompareArgs {
+    /// The image to judge (.exr or .png)
+    pub image: PathBuf,
+    /// The reference (.exr or .png), taken as the truth
+    pub reference: PathBuf,
+    /// Write a false-colour PNG of the per-pixel relative error
+    #[arg(long = "diff", value_name = "PNG")]
+    pub diff: Option<PathBuf>,
+    /// Relative error shown as full red in --diff [default: the 99th percentile]
+    #[arg(long = "diff-scale", value_name = "E")]
+    pub diff_scale: Option<f32>,
+}
+
+/// Reads an input image with an error that names the file.
+pub fn load(path: &Path) -> Result<Image> {
+    if !path.exists() {
+        bail!("{}: no such file", path.display());
+    }
+    Format::from_path(path).map_err(|_| {
+        anyhow::anyhow!(
+            "{}: unknown image format (expected a .exr or .png file)",
+            path.display()
+        )
+    })?;
+    output::read_image(path)
+}
+
+/// Colour ramp for an error in [0, 1]: black → blue → green → yellow → red.
+pub fn error_colour(t: f32) -> Vec3 {
+    const STOPS: [Vec3; 5] = [
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+    ];
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
+    let s = t * (STOPS.len() - 1) as f32;
+    let i = (s as usize).min(STOPS.len() - 2);
+    STOPS[i].lerp(STOPS[i + 1], s - i as f32)
+}
+
+/// Writes the relative-error map as a PNG; returns the scale used.
+pub fn write_diff(
+    image: &Image,
+    reference: &Image,
+    path: &Path,
+    scale: Option<f32>,
+) -> Result<f32> {
+    let errors = metrics::relative_error_map(image, reference)?;
+    let scale = scale.unwrap_or_else(|| {
+        let mut sorted: Vec<f32> = errors.iter().copied().filter(|e| e.is_finite()).collect();
+        sorted.sort_by(f32::total_cmp);
+        let p99 = sorted
+            .get(((sorted.len() as f64 * 0.99) as usize).min(sorted.len().saturating_sub(1)))
+            .copied()
+            .unwrap_or(0.0);
+        if p99 > 0.0 { p99 } else { 1.0 }
+    });
+    let data: Vec<u8> = errors
+        .iter()
+        .flat_map(|&e| {
+            let c = error_colour(e / scale);
+            [c.x, c.y, c.z].map(|v| (255.0 * v).round() as u8)
+        })
+        .collect();
+    let buffer = image::RgbImage::from_raw(image.width, image.height, data)
+        .context("diff image buffer size")?;
+    buffer
+        .save_with_format(path, image::ImageFormat::Png)
+        .with_context(|| format!("{}: cannot write PNG", path.display()))?;
+    Ok(scale)
+}
+
+/// Runs `wavepath compare`; `argv` starts with the subcommand's name.
+pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
+    let args = CompareArgs::parse_from(argv);
+    if let Some(s) = args.diff_scale
+        && !(s > 0.0 && s.is_finite())
+    {
+        bail!("--diff-scale must be a positive number, got {s}");
+    }
+    if let Some(d) = &args.diff
+        && Format::from_path(d).ok() != Some(Format::Png)
+    {
+        bail!("{}: --diff writes a PNG; name a .png file", d.display());
+    }
+    let image = load(&args.image)?;
+    let reference = load(&args.reference)?;
+    if (image.width, image.height) != (reference.width, reference.height) {
+        bail!(
+            "{} is {}x{} but the reference {} is {}x{}: sizes must match",
+            args.image.display(),
+            image.width,
+            image.height,
+            args.reference.display(),
+            reference.width,
+            reference.height
+        );
+    }
+    for (im, path) in [(&image, &args.image), (&reference, &args.reference)] {
+        let bad = im.non_finite_count();
+        if bad > 0 {
+            eprintln!(
+                "warning: {}: {bad} pixels are NaN or infinite; metrics will be too",
+                path.display()
+            );
+        }
+    }
+    let m = metrics::compare(&image, &reference)?;
+    println!(
+        "{} vs reference {} ({}x{})",
+        args.image.display(),
+        args.reference.display(),
+        image.width,
+        image.height
+    );
+    println!(
+        "{:<8} {:>12} {:>12} {:>10} {:>12}",
+        "channel", "RMSE", "relMSE", "MAPE %", "max error"
+    );
+    let names = ["R", "G", "B"];
+    for (name, c) in names
+        .iter()
+        .copied()
+        .zip(&m.channels)
+        .chain(std::iter::once(("all", &m.overall)))
+    {
+        println!(
+            "{name:<8} {:>12.4e} {:>12.4e} {:>10.3} {:>12.4e}",
+            c.rmse, c.rel_mse, c.mape, c.max_error
+        );
+    }
+    let has_error = |im: &Image| im.variance.iter().any(|v| *v != Vec3::ZERO);
+    if has_error(&reference) {
+        println!(
+            "reference noise: its own relMSE is about {:.3e} (from its standard-error channels)",
+            metrics::rel_mse_from_variance(&reference)
+        );
+    }
+    if has_error(&image) && has_error(&reference) {
+        let alpha = 1e-3;
+        let t = metrics::z_test(&image, &reference, alpha)?;
+        println!(
+            "same-mean test (alpha {alpha} each): max |z| {:.2} at ({}, {}, {}) vs Bonferroni {:.2}; \
+             global z {:.2} vs {:.2}: {}",
+            t.max_abs_z,
+            t.worst.0,
+            t.worst.1,
+            names[t.worst.2],
+            t.z_threshold,
+            t.global_z,
+            t.global_threshold,
+            if t.passes() {
+                "consistent"
+            } else {
+                "DIFFERENT"
+            }
+        );
+    }
+    if let Some(path) = &args.diff {
+        let scale = write_diff(&image, &reference, path, args.diff_scale)?;
+        println!(
+            "wrote {}: per-pixel relative error |x - ref| / (|ref| + {REL_EPSILON}), mean of R, G, B; \
+             black = 0, blue {:.3e}, green {:.3e}, yellow {:.3e}, red >= {:.3e}",
+            path.display(),
+            scale * 0.25,
+            scale * 0.5,
+            scale * 0.75,
+            scale
+        );
+    }
+    Ok(0)
+}

@@ -1,0 +1,435 @@
+//! `wavepath converge`: error against a reference as the sample budget grows.
+//!
+//! Why this exists: "faster" for a Monte Carlo renderer means less error in
+//! the same time, not more rays per second. This renders a scene at
+//! 1, 2, 4, … samples per pixel with each chosen estimator, measures
+//! relMSE and RMSE against a reference ([`crate::film::metrics`]), and
+//! writes a CSV and a log–log error-vs-time plot, plus the interpolated
+//! time to reach target errors. `--make-reference` renders that reference
+//! with its own noise estimate (per-pixel standard-error EXR channels), so
+//! every number can be read against the reference's own noise floor.
+//!
+//! The render flags (`-m`, `-l`, `-r`, `--seed`, `-t`, …) are the main
+//! command's [`Args`], flattened in; sampling is never adaptive here.
+
+use std::ffi::OsString;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::parser::ValueSource;
+use clap::{CommandFactory, FromArgMatches, Parser};
+
+use super::Args;
+use super::plot::{self, Curve};
+use crate::bvh::Bvh;
+use crate::film::metrics;
+use crate::film::output::{self, Format};
+use crate::integrator::Settings;
+use crate::scene::collada;
+use crate::wavefront::{RenderSettings, Renderer};
+
+/// References are rendered with `--seed` plus this, so that a reference
+/// and the convergence renders made with the same `--seed` use independent
+/// random numbers (correlated samples would make the error look smaller).
+pub const REFERENCE_SEED_OFFSET: u32 = 1_000_003;
+
+/// Reference samples per pixel when `-s` is not given.
+pub const DEFAULT_REFERENCE_SPP: u32 = 1024;
+
+/// A way of estimating the image. Each maps to integrator settings; a new
+/// estimator (BSDF sampling, MIS, …) is a new variant here and one arm in
+/// [`Estimator::configure`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Estimator {
+    /// Direct lighting by uniform hemisphere sampling (`-H`)
+    Hemisphere,
+    /// Direct lighting by sampling the lights (the default)
+    Light,
+}
+
+impl Estimator {
+    pub fn name(self) -> &'static str {
+        match self {
+            Estimator::Hemisphere => "hemisphere",
+            Estimator::Light => "light",
+        }
+    }
+
+    /// Sets the estimator's choices in `settings`, leaving the rest.
+    pub fn configure(self, settings: &mut Settings) {
+        settings.hemisphere = match self {
+            Estimator::Hemisphere => true,
+            Estimator::Light => false,
+        };
+    }
+
+    /// The estimator the render flags select.
+    pub fn from_settings(settings: &Settings) -> Estimator {
+        if settings.hemisphere {
+            Estimator::Hemisphere
+        } else {
+            Estimator::Light
+        }
+    }
+}
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "wavepath converge",
+    bin_name = "wavepath converge",
+    about = "Error against a reference as the sample budget grows, per estimator; \
+             or render that reference (--make-reference)",
+    after_help = "Examples:\n  \
+        wavepath converge --make-reference -s 1024 -m 5 -r 480 360 --ref ref.exr scene.dae\n  \
+        wavepath converge -m 5 -r 480 360 --ref ref.exr --estimators hemisphere,light \
+        --max-spp 256 --csv conv.csv scene.dae\n\
+        The render flags are those of `wavepath --help`; -s is the reference's spp \
+        (default 1024), -f, -a and -s are not used otherwise."
+)]
+pub struct ConvergeArgs {
+    #[command(flatten)]
+    pub render: Args,
+
+    /// Reference EXR: read, or written with --make-reference
+    #[arg(long = "ref", value_name = "EXR")]
+    pub reference: PathBuf,
+
+    /// Render the reference (-s spp, seed --seed + 1000003) with per-pixel
+    /// standard-error channels, and stop
+    #[arg(long = "make-reference")]
+    pub make_reference: bool,
+
+    /// Largest budget in samples per pixel (budgets double from 1)
+    #[arg(long = "max-spp", value_name = "N", default_value_t = 256,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_spp: u32,
+
+    /// Stop doubling once a render takes at least this long (seconds);
+    /// --max-spp still caps the budget when given
+    #[arg(long = "seconds", value_name = "S")]
+    pub seconds: Option<f64>,
+
+    /// Estimators to compare, comma-separated [default: the one -H selects]
+    #[arg(long = "estimators", value_enum, value_delimiter = ',')]
+    pub estimators: Vec<Estimator>,
+
+    /// relMSE targets to report the time to reach, comma-separated
+    #[arg(long = "targets", value_delimiter = ',', default_value = "1e-2,1e-3")]
+    pub targets: Vec<f64>,
+
+    /// CSV output: estimator, spp, seconds, relMSE, RMSE, relMSE less the reference's noise
+    #[arg(long = "csv", value_name = "FILE", default_value = "converge.csv")]
+    pub csv: PathBuf,
+
+    /// SVG plot of relMSE against time [default: the CSV's name with .svg]
+    #[arg(long = "plot", value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+}
+
+/// One measured budget.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub estimator: Estimator,
+    pub spp: u32,
+    pub seconds: f64,
+    pub rel_mse: f64,
+    pub rmse: f64,
+}
+
+/// Time at which the measured (time, error) curve first reaches `target`,
+/// interpolated linearly in log–log between the budgets around it.
+/// `Some((t, false))` when reached between budgets, `Some((t0, true))` when
+/// already the first budget was below (t is an upper bound), `None` when
+/// never reached.
+pub fn time_to_reach(points: &[(f64, f64)], target: f64) -> Option<(f64, bool)> {
+    let i = points.iter().position(|&(_, e)| e <= target)?;
+    if i == 0 {
+        return Some((points[0].0, true));
+    }
+    let ((t0, e0), (t1, e1)) = (points[i - 1], points[i]);
+    if !(e0 > e1 && t0 > 0.0 && t1 > 0.0 && e1 > 0.0) {
+        return Some((t1, false));
+    }
+    let f = (e0.ln() - target.ln()) / (e0.ln() - e1.ln());
+    Some(((t0.ln() + f * (t1.ln() - t0.ln())).exp(), false))
+}
+
+/// Runs `wavepath converge`; `argv` starts with the subcommand's name.
+pub fn run(argv: Vec<OsString>) -> Result<i32> {
+    let matches = ConvergeArgs::command().get_matches_from(argv);
+    let args = ConvergeArgs::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    let from_command_line = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
+    if from_command_line("output") {
+        bail!(
+            "converge: -f is not used; name the reference with --ref, outputs with --csv and --plot"
+        );
+    }
+    if Format::from_path(&args.reference).ok() != Some(Format::Exr) {
+        bail!(
+            "{}: the reference must be an .exr file",
+            args.reference.display()
+        );
+    }
+    if let Some(s) = args.seconds
+        && !(s > 0.0 && s.is_finite())
+    {
+        bail!("--seconds must be a positive number, got {s}");
+    }
+    if let Some(t) = args.targets.iter().find(|t| !(**t > 0.0 && t.is_finite())) {
+        bail!("--targets must be positive numbers, got {t}");
+    }
+
+    let (mut settings, _) = super::validate(&args.render);
+    settings.adaptive = None;
+    let chatty = !args.render.quiet;
+
+    let threads = args.render.threads.map_or_else(
+        || std::thread::available_parallelism().map_or(1, |n| n.get()),
+        |t| t as usize,
+    );
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("cannot start worker threads")?;
+    let scene = match &args.render.scene {
+        Some(path) => collada::load_file(path)?,
+        None => collada::load_str(super::DEFAULT_SCENE, Path::new(super::DEFAULT_SCENE_NAME))?,
+    };
+    let scene_name = super::scene_path(&args.render).display().to_string();
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let bvh = pool.install(|| Bvh::build(&scene.geometry, args.render.accel));
+    let renderer = Renderer::new(&scene, &bvh);
+    for w in &renderer.warnings {
+        eprintln!("warning: {w}");
+    }
+
+    let cancel = Arc::new(AtomicBool::new(false));
+    {
+        let cancel = Arc::clone(&cancel);
+        let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::Relaxed));
+    }
+    let render = |s: &RenderSettings| {
+        let t = Instant::now();
+        let out = pool.install(|| renderer.render(s, &|_| {}, &cancel));
+        (out, t.elapsed().as_secs_f64())
+    };
+
+    if args.make_reference {
+        if args.estimators.len() > 1 {
+            bail!("--make-reference renders one estimator; give at most one in --estimators");
+        }
+        if let Some(e) = args.estimators.first() {
+            e.configure(&mut settings.integrator);
+        }
+        settings.spp = if from_command_line("spp") {
+            args.render.spp
+        } else {
+            DEFAULT_REFERENCE_SPP
+        };
+        settings.seed = settings.seed.wrapping_add(REFERENCE_SEED_OFFSET);
+        if chatty {
+            eprintln!(
+                "rendering the reference: {scene_name}, {}x{}, {} spp, -m {}, {} estimator, {threads} threads",
+                settings.width,
+                settings.height,
+                settings.spp,
+                settings.integrator.max_depth,
+                Estimator::from_settings(&settings.integrator).name()
+            );
+        }
+        let (out, secs) = render(&settings);
+        if !out.complete {
+            eprintln!("interrupted: no reference written");
+            return Ok(super::EXIT_INTERRUPTED);
+        }
+        output::write_exr_with_error(&out.image, &args.reference)?;
+        println!(
+            "wrote {} ({} spp in {secs:.1} s); its own relMSE, estimated from its variance: {:.3e}",
+            args.reference.display(),
+            settings.spp,
+            metrics::rel_mse_from_variance(&out.image)
+        );
+        return Ok(0);
+    }
+
+    let reference = super::compare::load(&args.reference)?;
+    if (reference.width, reference.height) != (settings.width, settings.height) {
+        bail!(
+            "{} is {}x{} but the renders are {}x{} (give -r {} {})",
+            args.reference.display(),
+            reference.width,
+            reference.height,
+            settings.width,
+            settings.height,
+            reference.width,
+            reference.height
+        );
+    }
+    let floor = metrics::rel_mse_from_variance(&reference);
+    if reference.variance.iter().all(|v| *v == glam::Vec3::ZERO) {
+        eprintln!(
+            "warning: {} has no standard-error channels: its own noise is unknown and not subtracted",
+            args.reference.display()
+        );
+    } else {
+        println!(
+            "reference {}: own relMSE about {floor:.3e} (measured relMSE = true relMSE + this, in expectation)",
+            args.reference.display()
+        );
+    }
+
+    let estimators = if args.estimators.is_empty() {
+        vec![Estimator::from_settings(&settings.integrator)]
+    } else {
+        args.estimators.clone()
+    };
+    // With --seconds and no explicit --max-spp, time alone stops the doubling.
+    let max_spp = if args.seconds.is_some() && !from_command_line("max_spp") {
+        u32::MAX / 2
+    } else {
+        args.max_spp
+    };
+
+    println!(
+        "{scene_name}: {}x{}, -m {}, -l {}, seed {}, {threads} threads",
+        settings.width,
+        settings.height,
+        settings.integrator.max_depth,
+        settings.integrator.light_samples,
+        settings.seed
+    );
+    println!(
+        "{:<12} {:>7} {:>10} {:>12} {:>12} {:>14}",
+        "estimator", "spp", "seconds", "relMSE", "RMSE", "relMSE-floor"
+    );
+    let mut rows: Vec<Row> = Vec::new();
+    let mut interrupted = false;
+    'estimators: for &estimator in &estimators {
+        let mut s = settings;
+        estimator.configure(&mut s.integrator);
+        let mut spp = 1u32;
+        while spp <= max_spp {
+            s.spp = spp;
+            let (out, seconds) = render(&s);
+            if !out.complete {
+                interrupted = true;
+                break 'estimators;
+            }
+            let m = metrics::compare(&out.image, &reference)?;
+            let row = Row {
+                estimator,
+                spp,
+                seconds,
+                rel_mse: m.overall.rel_mse,
+                rmse: m.overall.rmse,
+            };
+            println!(
+                "{:<12} {:>7} {:>10.3} {:>12.4e} {:>12.4e} {:>14.4e}",
+                estimator.name(),
+                spp,
+                seconds,
+                row.rel_mse,
+                row.rmse,
+                row.rel_mse - floor
+            );
+            rows.push(row);
+            if args.seconds.is_some_and(|limit| seconds >= limit) {
+                break;
+            }
+            spp = spp.saturating_mul(2);
+        }
+    }
+
+    let mut csv =
+        String::from("estimator,spp,seconds,rel_mse,rmse,rel_mse_minus_reference_noise\n");
+    for r in &rows {
+        let _ = writeln!(
+            csv,
+            "{},{},{:.6},{:.6e},{:.6e},{:.6e}",
+            r.estimator.name(),
+            r.spp,
+            r.seconds,
+            r.rel_mse,
+            r.rmse,
+            r.rel_mse - floor
+        );
+    }
+    std::fs::write(&args.csv, csv)
+        .with_context(|| format!("{}: cannot write CSV", args.csv.display()))?;
+    println!("wrote {}", args.csv.display());
+
+    let curves: Vec<Curve> = estimators
+        .iter()
+        .map(|&e| Curve {
+            name: e.name().to_string(),
+            points: rows
+                .iter()
+                .filter(|r| r.estimator == e)
+                .map(|r| (r.seconds, r.rel_mse))
+                .collect(),
+        })
+        .filter(|c| !c.points.is_empty())
+        .collect();
+    let plot_path = args
+        .plot
+        .clone()
+        .unwrap_or_else(|| args.csv.with_extension("svg"));
+    if !curves.is_empty() {
+        let title = format!(
+            "{} {}x{} -m {}: relMSE vs time, {threads} threads",
+            Path::new(&scene_name)
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("scene"),
+            settings.width,
+            settings.height,
+            settings.integrator.max_depth
+        );
+        let floor_line = (floor > 0.0).then_some((floor, "reference noise"));
+        plot::error_vs_time(&plot_path, &title, "relMSE", &curves, floor_line)?;
+        println!("wrote {}", plot_path.display());
+    }
+
+    for c in &curves {
+        let corrected: Vec<(f64, f64)> = c.points.iter().map(|&(t, e)| (t, e - floor)).collect();
+        for &target in &args.targets {
+            let describe = |r: Option<(f64, bool)>| match r {
+                Some((t, false)) => format!("{t:.3} s"),
+                Some((t, true)) => format!("<= {t:.3} s (first budget)"),
+                None => "not reached".to_string(),
+            };
+            println!(
+                "{}: time to relMSE <= {target:.0e}: {} (measured), {} (less the reference's noise)",
+                c.name,
+                describe(time_to_reach(&c.points, target)),
+                describe(time_to_reach(&corrected, target))
+            );
+        }
+    }
+    if interrupted {
+        eprintln!("interrupted: wrote the budgets finished so far");
+        return Ok(super::EXIT_INTERRUPTED);
+    }
+    Ok(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::time_to_reach;
+
+    #[test]
+    fn time_to_reach_interpolates_in_log_log() {
+        // Error ∝ 1/t: 1e-1 at 1 s, 1e-3 at 100 s → 1e-2 at 10 s.
+        let pts = [(1.0, 1e-1), (100.0, 1e-3)];
+        let (t, bound) = time_to_reach(&pts, 1e-2).unwrap();
+        assert!((t - 10.0).abs() < 1e-9 && !bound);
+        assert_eq!(time_to_reach(&pts, 1.0), Some((1.0, true)));
+        assert_eq!(time_to_reach(&pts, 1e-4), None);
+    }
+}
