@@ -189,6 +189,9 @@ impl Bvh {
         bvh.nodes = flat.nodes;
         bvh.tri_groups = flat.tri_groups;
         bvh.spheres = flat.spheres;
+        bvh.nodes.shrink_to_fit();
+        bvh.tri_groups.shrink_to_fit();
+        bvh.spheres.shrink_to_fit();
         bvh.root = flat.root;
         bvh.depth = flat.depth;
         if let Some(root) = root {

@@ -179,7 +179,13 @@ pub(crate) fn intersect_group(g: &TriGroup, r: &RayTri, t_far: f32) -> GroupHit 
 /// Recomputes the edge functions of the lanes in `lanes` in f64.
 #[cold]
 #[inline(never)]
-fn refine_edges_f64(lanes: u32, p: [[f32; TRI_WIDTH]; 6], u: &mut TriLanes, v: &mut TriLanes, w: &mut TriLanes) {
+fn refine_edges_f64(
+    lanes: u32,
+    p: [[f32; TRI_WIDTH]; 6],
+    u: &mut TriLanes,
+    v: &mut TriLanes,
+    w: &mut TriLanes,
+) {
     let (mut uu, mut vv, mut ww) = (u.to_array(), v.to_array(), w.to_array());
     let [ax, ay, bx, by, cx, cy] = p;
     let mut bits = lanes;
