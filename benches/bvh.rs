@@ -6,7 +6,15 @@
 //! cargo bench --bench bvh --features embree        # + Embree (apt-get install libembree-dev)
 //! BVH_BENCH_SCENES=CBbunny,maxplanck cargo bench --bench bvh --features embree
 //! BVH_BENCH_SCALING=1 cargo bench --bench bvh -- scaling   # 1k..4M triangle sweep
+//! BVH_BENCH_QUICK=1 cargo bench --bench bvh --features embree  # plain table, see below
 //! ```
+//!
+//! `BVH_BENCH_QUICK=1` skips criterion and prints one table row per scene
+//! and ray set: build times and Mrays/s for wavepath and Embree's
+//! rtcIntersect1/rtcOccluded1 and 8- and 16-wide packet calls, on one thread
+//! (measured in thread CPU time, which a busy shared machine distorts less
+//! than wall time) and on all threads (wall time). `BVH_BENCH_SCENES`
+//! selects scenes by name there too (`sphere1k` … `sphere4M` for the sweep).
 //!
 //! Scenes: CBbunny, maxplanck and building from `../shared/scenes/cs184`
 //! (skipped with a message when absent) and procedural bumpy spheres of ~1M
@@ -417,17 +425,23 @@ fn thread_cpu_ns() -> Option<u64> {
     s.split_whitespace().next()?.parse().ok()
 }
 
-/// Best of `reps` runs of `f`: (thread CPU seconds, wall seconds).
+/// Best of `reps` measurements of `f`: (thread CPU seconds, wall seconds)
+/// per call. Each measurement repeats `f` for at least 0.2 s, because the
+/// kernel may account CPU time only at scheduler ticks (4 ms here).
 fn best_of(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
     let (mut cpu, mut wall) = (f64::INFINITY, f64::INFINITY);
     for _ in 0..reps {
         let c0 = thread_cpu_ns();
         let t0 = std::time::Instant::now();
-        f();
-        let w = t0.elapsed().as_secs_f64();
+        let mut calls = 0;
+        while calls == 0 || t0.elapsed().as_secs_f64() < 0.2 {
+            f();
+            calls += 1;
+        }
+        let w = t0.elapsed().as_secs_f64() / calls as f64;
         wall = wall.min(w);
         cpu = cpu.min(match (c0, thread_cpu_ns()) {
-            (Some(a), Some(b)) => (b - a) as f64 * 1e-9,
+            (Some(a), Some(b)) => (b - a) as f64 * 1e-9 / calls as f64,
             _ => w,
         });
     }
@@ -465,7 +479,7 @@ fn quick(w: &Workload) {
         let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
         let n = set.len() as f64 * 1e-6;
         let mut row = format!("  {:8} {:7} rays", set.kind, set.len());
-        let (c1, _) = best_of(5, || {
+        let (c1, _) = best_of(3, || {
             for (rays, (h, o)) in set.batches.iter().zip(hits.iter_mut().zip(occ.iter_mut())) {
                 if set.shadow {
                     bvh.occluded(rays, o, &mut TraversalStats::default());
@@ -474,7 +488,7 @@ fn quick(w: &Workload) {
                 }
             }
         });
-        let (_, wm) = best_of(5, || all.install(|| trace(&bvh, set, &mut hits, &mut occ)));
+        let (_, wm) = best_of(3, || all.install(|| trace(&bvh, set, &mut hits, &mut occ)));
         row += &format!(" | wavepath {:6.1} {:6.1}", n / c1, n / wm);
         #[cfg(feature = "embree")]
         for mode in [
@@ -483,12 +497,12 @@ fn quick(w: &Workload) {
             embree::Mode::Packet16,
         ] {
             let primary = set.kind == "primary";
-            let (c1, _) = best_of(5, || {
+            let (c1, _) = best_of(3, || {
                 for (rays, h) in set.batches.iter().zip(hits.iter_mut()) {
                     escene.trace(rays, set.shadow, primary, mode, h);
                 }
             });
-            let (_, wm) = best_of(5, || {
+            let (_, wm) = best_of(3, || {
                 all.install(|| {
                     set.batches
                         .par_iter()

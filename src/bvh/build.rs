@@ -280,9 +280,9 @@ fn choose_split(
         for &id in prims {
             let k = bin_index(ctx.centroids[id as usize]);
             let b = ctx.bounds[id as usize];
-            for a in 0..3 {
-                bin.count[a][k[a]] += 1;
-                bin.bounds[a][k[a]] = bin.bounds[a][k[a]].union(b);
+            for (a, &k) in k.iter().enumerate() {
+                bin.count[a][k] += 1;
+                bin.bounds[a][k] = bin.bounds[a][k].union(b);
             }
         }
         bin
