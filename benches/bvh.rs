@@ -524,10 +524,10 @@ fn main() {
             ("maxplanck", "meshedit/maxplanck.dae"),
             ("building", "keenan/building.dae"),
         ] {
-            if wanted(name) {
-                if let Some(w) = load(name, rel) {
-                    quick(&w);
-                }
+            if wanted(name)
+                && let Some(w) = load(name, rel)
+            {
+                quick(&w);
             }
         }
         for n in [16, 64, 256, 512, 1024] {
@@ -550,10 +550,10 @@ fn main() {
             ("maxplanck", "meshedit/maxplanck.dae"),
             ("building", "keenan/building.dae"),
         ] {
-            if wanted(name) {
-                if let Some(w) = load(name, rel) {
-                    bench_workload(&mut c, &w);
-                }
+            if wanted(name)
+                && let Some(w) = load(name, rel)
+            {
+                bench_workload(&mut c, &w);
             }
         }
         for (name, n) in [("sphere1M", 512), ("sphere4M", 1024)] {
