@@ -1,0 +1,221 @@
+//! `wavepath compare` and `wavepath converge` as a user runs them: results
+//! on good input, one clear line naming the file and a non-zero exit on
+//! bad input, and the render command left as it was.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use wavepath::film::output::read_image;
+
+fn wavepath_in(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_wavepath"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("run wavepath")
+}
+
+fn wavepath(args: &[&str]) -> Output {
+    wavepath_in(Path::new(env!("CARGO_MANIFEST_DIR")), args)
+}
+
+/// A fresh scratch directory for one test.
+fn scratch(test: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("cli_tools")
+        .join(test);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+const SCENE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+
+/// Renders the Cornell box to `out` at `w`×`h`.
+fn render(out: &Path, w: u32, h: u32, spp: u32, seed: u32) {
+    let o = wavepath(&[
+        "-q",
+        "--no-adaptive",
+        "-s",
+        &spp.to_string(),
+        "-m",
+        "2",
+        "-r",
+        &w.to_string(),
+        &h.to_string(),
+        "--seed",
+        &seed.to_string(),
+        "-f",
+        out.to_str().unwrap(),
+        SCENE,
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+}
+
+/// Asserts a failure whose message names `file`, and no panic.
+fn assert_refused(o: &Output, file: &str) {
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains(file), "message does not name {file}: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn compare_reports_zero_for_identical_images_and_error_for_different_ones() {
+    let dir = scratch("compare_metrics");
+    let (a, b) = (dir.join("a.exr"), dir.join("b.exr"));
+    render(&a, 32, 24, 4, 1);
+    render(&b, 32, 24, 4, 2);
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+
+    let o = wavepath(&["compare", &s(&a), &s(&a)]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    let all = out.lines().find(|l| l.starts_with("all")).expect(&out);
+    assert!(
+        all.split_whitespace()
+            .skip(1)
+            .all(|v| v.parse::<f64>() == Ok(0.0)),
+        "{all}"
+    );
+
+    let diff = dir.join("diff.png");
+    let o = wavepath(&["compare", &s(&a), &s(&b), "--diff", &s(&diff)]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    let all = out.lines().find(|l| l.starts_with("all")).expect(&out);
+    let rel_mse: f64 = all.split_whitespace().nth(2).unwrap().parse().unwrap();
+    // Two 4-spp renders with different seeds differ, but not wildly.
+    assert!(rel_mse > 1e-4 && rel_mse < 10.0, "{out}");
+    assert!(out.contains("red >="), "the diff's scale is printed: {out}");
+    let d = read_image(&diff).unwrap();
+    assert_eq!((d.width, d.height), (32, 24));
+}
+
+#[test]
+fn compare_refuses_bad_input_naming_the_file() {
+    let dir = scratch("compare_bad");
+    let good = dir.join("good.exr");
+    render(&good, 16, 12, 1, 0);
+    let small = dir.join("small.png");
+    render(&small, 8, 6, 1, 0);
+    let txt = dir.join("notes.txt");
+    std::fs::write(&txt, "hello").unwrap();
+    let junk = dir.join("junk.exr");
+    std::fs::write(&junk, "not an exr").unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+
+    let missing = dir.join("missing.exr");
+    assert_refused(
+        &wavepath(&["compare", &s(&missing), &s(&good)]),
+        "missing.exr",
+    );
+    assert_refused(
+        &wavepath(&["compare", &s(&good), &s(&missing)]),
+        "missing.exr",
+    );
+    assert_refused(&wavepath(&["compare", &s(&txt), &s(&good)]), "notes.txt");
+    assert_refused(&wavepath(&["compare", &s(&junk), &s(&good)]), "junk.exr");
+    let o = wavepath(&["compare", &s(&small), &s(&good)]);
+    assert_refused(&o, "small.png");
+    assert!(text(&o.stderr).contains("good.exr"));
+    // A usage error is clap's: status 2, with the usage line.
+    let o = wavepath(&["compare", &s(&good)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("wavepath compare"));
+}
+
+#[test]
+fn converge_makes_a_reference_with_its_noise_and_writes_csv_and_plot() {
+    let dir = scratch("converge");
+    let common = ["-m", "2", "-r", "24", "18"];
+    let mut args = vec!["converge", "--make-reference", "-s", "64"];
+    args.extend(common);
+    args.extend(["--ref", "ref.exr", SCENE]);
+    let o = wavepath_in(&dir, &args);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stdout).contains("own relMSE"),
+        "{}",
+        text(&o.stdout)
+    );
+    let reference = read_image(&dir.join("ref.exr")).unwrap();
+    assert_eq!((reference.width, reference.height), (24, 18));
+    assert!(reference.samples.iter().all(|&n| n == 64));
+    assert!(reference.variance.iter().any(|v| v.max_element() > 0.0));
+
+    let mut args = vec!["converge", "--max-spp", "4"];
+    args.extend(common);
+    args.extend([
+        "--ref",
+        "ref.exr",
+        "--estimators",
+        "hemisphere,light",
+        "--csv",
+        "c.csv",
+        SCENE,
+    ]);
+    let o = wavepath_in(&dir, &args);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let csv = std::fs::read_to_string(dir.join("c.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let got: Vec<(&str, &str)> = rows.iter().map(|r| (r[0], r[1])).collect();
+    assert_eq!(
+        got,
+        [
+            ("hemisphere", "1"),
+            ("hemisphere", "2"),
+            ("hemisphere", "4"),
+            ("light", "1"),
+            ("light", "2"),
+            ("light", "4")
+        ]
+    );
+    let rel: Vec<f64> = rows.iter().map(|r| r[3].parse().unwrap()).collect();
+    // Light sampling beats uniform hemisphere sampling at equal spp on the
+    // Cornell box by a wide margin; error falls as spp grows.
+    assert!(rel[5] < rel[2] && rel[5] < rel[3], "{csv}");
+    let svg = std::fs::read_to_string(dir.join("c.svg")).unwrap();
+    assert!(
+        svg.starts_with("<svg") && svg.contains("hemisphere"),
+        "{svg}"
+    );
+}
+
+#[test]
+fn converge_refuses_bad_references_naming_the_file() {
+    let dir = scratch("converge_bad");
+    let o = wavepath_in(
+        &dir,
+        &["converge", "-r", "8", "6", "--ref", "none.exr", SCENE],
+    );
+    assert_refused(&o, "none.exr");
+    let o = wavepath_in(
+        &dir,
+        &["converge", "-r", "8", "6", "--ref", "ref.png", SCENE],
+    );
+    assert_refused(&o, "ref.png");
+    render(&dir.join("big.exr"), 16, 12, 1, 0);
+    let o = wavepath_in(
+        &dir,
+        &["converge", "-r", "8", "6", "--ref", "big.exr", SCENE],
+    );
+    assert_refused(&o, "big.exr");
+}
+
+#[test]
+fn a_scene_named_like_a_tool_renders_when_given_as_a_path() {
+    let dir = scratch("named_compare");
+    std::fs::copy(SCENE, dir.join("compare")).unwrap();
+    let o = wavepath_in(&dir, &["-q", "-r", "8", "6", "-f", "out.png", "./compare"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(dir.join("out.png").is_file());
+}
