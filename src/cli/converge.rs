@@ -121,7 +121,8 @@ pub struct ConvergeArgs {
     #[arg(long = "targets", value_delimiter = ',', default_value = "1e-2,1e-3")]
     pub targets: Vec<f64>,
 
-    /// CSV output: estimator, spp, seconds, relMSE, RMSE, relMSE less the reference's noise
+    /// CSV output: estimator, spp, seconds, relMSE, RMSE, relMSE less the
+    /// reference's noise, process CPU seconds
     #[arg(long = "csv", value_name = "FILE", default_value = "converge.csv")]
     pub csv: PathBuf,
 
@@ -130,12 +131,31 @@ pub struct ConvergeArgs {
     pub plot: Option<PathBuf>,
 }
 
+/// CPU time (user + system) this process has used, in seconds, where the
+/// OS reports it (Linux `/proc/self/stat`, at its 100 Hz tick). On a
+/// machine shared with other work, CPU time / threads is what a render
+/// would take on idle cores, while wall time depends on the neighbours.
+pub fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are the
+    // 14th and 15th fields of the whole line.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let mut fields = rest.split_whitespace().skip(11);
+    let utime: f64 = fields.next()?.parse().ok()?;
+    let stime: f64 = fields.next()?.parse().ok()?;
+    const TICKS_PER_SECOND: f64 = 100.0;
+    Some((utime + stime) / TICKS_PER_SECOND)
+}
+
 /// One measured budget.
 #[derive(Clone, Debug)]
 pub struct Row {
     pub estimator: Estimator,
     pub spp: u32,
+    /// Wall-clock render time.
     pub seconds: f64,
+    /// Process CPU time of the render (all threads), if known.
+    pub cpu_seconds: Option<f64>,
     pub rel_mse: f64,
     pub rmse: f64,
 }
@@ -215,9 +235,12 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::Relaxed));
     }
     let render = |s: &RenderSettings| {
+        let cpu = process_cpu_seconds();
         let t = Instant::now();
         let out = pool.install(|| renderer.render(s, &|_| {}, &cancel));
-        (out, t.elapsed().as_secs_f64())
+        let wall = t.elapsed().as_secs_f64();
+        let cpu = cpu.zip(process_cpu_seconds()).map(|(a, b)| b - a);
+        (out, wall, cpu)
     };
 
     if args.make_reference {
@@ -243,7 +266,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
                 Estimator::from_settings(&settings.integrator).name()
             );
         }
-        let (out, secs) = render(&settings);
+        let (out, secs, _) = render(&settings);
         if !out.complete {
             eprintln!("interrupted: no reference written");
             return Ok(super::EXIT_INTERRUPTED);
@@ -305,8 +328,8 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         settings.seed
     );
     println!(
-        "{:<12} {:>7} {:>10} {:>12} {:>12} {:>14}",
-        "estimator", "spp", "seconds", "relMSE", "RMSE", "relMSE-floor"
+        "{:<12} {:>7} {:>10} {:>10} {:>12} {:>12} {:>14}",
+        "estimator", "spp", "seconds", "cpu s", "relMSE", "RMSE", "relMSE-floor"
     );
     let mut rows: Vec<Row> = Vec::new();
     let mut interrupted = false;
@@ -316,7 +339,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         let mut spp = 1u32;
         while spp <= max_spp {
             s.spp = spp;
-            let (out, seconds) = render(&s);
+            let (out, seconds, cpu_seconds) = render(&s);
             if !out.complete {
                 interrupted = true;
                 break 'estimators;
@@ -326,14 +349,16 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
                 estimator,
                 spp,
                 seconds,
+                cpu_seconds,
                 rel_mse: m.overall.rel_mse,
                 rmse: m.overall.rmse,
             };
             println!(
-                "{:<12} {:>7} {:>10.3} {:>12.4e} {:>12.4e} {:>14.4e}",
+                "{:<12} {:>7} {:>10.3} {:>10} {:>12.4e} {:>12.4e} {:>14.4e}",
                 estimator.name(),
                 spp,
                 seconds,
+                cpu_seconds.map_or("-".into(), |c| format!("{c:.2}")),
                 row.rel_mse,
                 row.rmse,
                 row.rel_mse - floor
@@ -346,18 +371,20 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         }
     }
 
-    let mut csv =
-        String::from("estimator,spp,seconds,rel_mse,rmse,rel_mse_minus_reference_noise\n");
+    let mut csv = String::from(
+        "estimator,spp,seconds,rel_mse,rmse,rel_mse_minus_reference_noise,cpu_seconds\n",
+    );
     for r in &rows {
         let _ = writeln!(
             csv,
-            "{},{},{:.6},{:.6e},{:.6e},{:.6e}",
+            "{},{},{:.6},{:.6e},{:.6e},{:.6e},{}",
             r.estimator.name(),
             r.spp,
             r.seconds,
             r.rel_mse,
             r.rmse,
-            r.rel_mse - floor
+            r.rel_mse - floor,
+            r.cpu_seconds.map_or(String::new(), |c| format!("{c:.2}"))
         );
     }
     std::fs::write(&args.csv, csv)
@@ -398,6 +425,15 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
 
     for c in &curves {
         let corrected: Vec<(f64, f64)> = c.points.iter().map(|&(t, e)| (t, e - floor)).collect();
+        // CPU time / threads: the render time on idle cores (perfect scaling).
+        let idle: Option<Vec<(f64, f64)>> = rows
+            .iter()
+            .filter(|r| r.estimator.name() == c.name)
+            .map(|r| {
+                r.cpu_seconds
+                    .map(|cpu| (cpu / threads as f64, r.rel_mse - floor))
+            })
+            .collect();
         for &target in &args.targets {
             let describe = |r: Option<(f64, bool)>| match r {
                 Some((t, false)) => format!("{t:.3} s"),
@@ -410,6 +446,13 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
                 describe(time_to_reach(&c.points, target)),
                 describe(time_to_reach(&corrected, target))
             );
+            if let Some(idle) = &idle {
+                println!(
+                    "{}: time to relMSE <= {target:.0e} from CPU time / {threads} threads: {} (less the reference's noise)",
+                    c.name,
+                    describe(time_to_reach(idle, target))
+                );
+            }
         }
     }
     if interrupted {
