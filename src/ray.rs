@@ -139,34 +139,57 @@ impl Hits {
     }
 }
 
+/// γₙ = nε / (1 − nε) with ε = 2⁻²⁴ (half an ULP of 1): the classic bound
+/// on the relative error of `n` chained f32 operations (Higham; PBRT §3.9).
+pub const fn gamma(n: u32) -> f32 {
+    let e = n as f32 * (f32::EPSILON * 0.5);
+    e / (1.0 - e)
+}
+
 /// Moves a surface point off the surface along the geometric normal `n`
-/// (pointing to the side the new ray leaves from), far enough that a ray
-/// starting there cannot hit the surface it left, at any scene scale.
+/// (unit, pointing to the side the new ray leaves from) by `err`, a bound on
+/// how far the computed point may lie on the wrong side of the surface *as
+/// the intersection tests will see it*, then one more ULP per axis away
+/// from the surface so that rounding the sum cannot undo the move.
 ///
-/// The offset is a fixed number of ULPs of each coordinate (so it scales
-/// with the magnitude of the point, which bounds the rounding error of a
-/// computed hit point), with a small absolute floor near the origin where
-/// ULPs become denormal. This is the integer-offset method of Wächter and
-/// Binder ("A Fast and Robust Method for Avoiding Self-Intersection", Ray
-/// Tracing Gems, 2019).
+/// The callers derive `err` from the arithmetic that produced the point and
+/// from the extent of the primitive (the ray/triangle and ray/sphere tests
+/// work in coordinates relative to the ray origin, so their rounding scales
+/// with the distance to the primitive's far end); see `surface_point` in
+/// `wavefront/shade.rs` and `integrator/lights.rs`. Because every term is
+/// relative to the magnitudes involved, the offset is right at any scene
+/// scale: about one ULP of the point for small primitives far from the
+/// origin, and ~1e-6 of the primitive's size near it. (A fixed epsilon is
+/// too big for tiny scenes and below the float spacing far from the
+/// origin; a fixed count of ULPs, as in Wächter and Binder's method, is
+/// hundreds of times larger than the error far from the origin and needs
+/// an absolute floor near it. `tests/stress.rs` catches both.)
+#[inline]
+pub fn offset_by(p: Vec3, n: Vec3, err: f32) -> Vec3 {
+    let moved = p + err * n;
+    // One ULP further in the direction of n: ±1 on the bit pattern, which
+    // moves away from zero for a positive step on a positive number, etc.
+    let away = |x: f32, n: f32| -> f32 {
+        if n == 0.0 || !x.is_finite() {
+            return x;
+        }
+        let up = n > 0.0;
+        if x == 0.0 {
+            let tiny = f32::from_bits(1);
+            return if up { tiny } else { -tiny };
+        }
+        let bits = x.to_bits();
+        let bigger = (x > 0.0) == up;
+        f32::from_bits(if bigger { bits + 1 } else { bits - 1 })
+    };
+    Vec3::new(away(moved.x, n.x), away(moved.y, n.y), away(moved.z, n.z))
+}
+
+/// [`offset_by`] for a point known to within a few ULPs of its own
+/// coordinates, tested against primitives no larger than its distance
+/// from the origin (`err` = γ₈·max|pᵢ|). The renderer's stages know more
+/// about their points and call [`offset_by`] directly.
 #[inline]
 pub fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
-    const ORIGIN: f32 = 1.0 / 32.0;
-    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
-    const INT_SCALE: f32 = 256.0;
-    let offset_axis = |p: f32, n: f32| -> f32 {
-        let of_i = (INT_SCALE * n) as i32;
-        let bits = p.to_bits() as i32;
-        let moved = f32::from_bits((bits + if p < 0.0 { -of_i } else { of_i }) as u32);
-        if p.abs() < ORIGIN {
-            p + FLOAT_SCALE * n
-        } else {
-            moved
-        }
-    };
-    Vec3::new(
-        offset_axis(p.x, n.x),
-        offset_axis(p.y, n.y),
-        offset_axis(p.z, n.z),
-    )
+    offset_by(p, n, gamma(8) * p.abs().max_element())
 }

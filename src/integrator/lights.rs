@@ -8,14 +8,14 @@
 use glam::Vec3;
 
 use super::bsdf::Surface;
-use crate::ray::offset_origin;
+use crate::ray::{gamma, offset_by};
 use crate::sampling::warp;
 use crate::scene::{Light, Scene};
 
 /// A sampled connection from a shading point to a light.
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {
-    /// Unnormalised direction from the (offset) origin to the light.
+    /// Unnormalised direction from the shadow ray's (offset) origin to the light.
     pub direction: Vec3,
     /// Extent of the shadow ray along `direction`.
     pub t_max: f32,
@@ -72,10 +72,19 @@ impl LightSource {
         )
     }
 
-    /// Draws a connection from `p` (already offset off its surface) with
-    /// random numbers `(u, v)` and, for meshes, `w` to pick a triangle.
-    /// `None` when the light cannot reach `p`.
-    pub fn sample(&self, p: Vec3, n: Vec3, u: f32, v: f32, w: f32) -> Option<LightSample> {
+    /// Draws a connection from surface point `p` (normal `n`) with random
+    /// numbers `(u, v)` and, for meshes, `w` to pick a triangle. The weight
+    /// and cosine are measured from `p`; the shadow ray starts at `origin`,
+    /// `p` moved off its surface. `None` when the light cannot reach `p`.
+    pub fn sample(
+        &self,
+        p: Vec3,
+        origin: Vec3,
+        n: Vec3,
+        u: f32,
+        v: f32,
+        w: f32,
+    ) -> Option<LightSample> {
         match self {
             LightSource::Point {
                 position,
@@ -85,7 +94,7 @@ impl LightSource {
                 let dist2 = d.length_squared();
                 let cos_surface = n.dot(d) / dist2.sqrt();
                 (dist2 > 0.0 && cos_surface > 0.0).then(|| LightSample {
-                    direction: d,
+                    direction: *position - origin,
                     t_max: 1.0,
                     weight: *intensity / dist2,
                     cos_surface,
@@ -109,8 +118,14 @@ impl LightSource {
                 area,
             } => {
                 let q = *center + (u - 0.5) * *dim_x + (v - 0.5) * *dim_y;
+                // How far q may be from the plane of the light's two
+                // triangles (corners center ± dim/2, rounded): γ₅ of the
+                // magnitudes that went into both.
+                let q_err =
+                    gamma(5) * (center.abs() + 0.5 * dim_x.abs() + 0.5 * dim_y.abs()).max_element();
+                let extent = (dim_x.abs() + dim_y.abs()).max_element();
                 // One-sided: light leaves toward `normal` only.
-                connect(p, n, q, *normal, *area, *radiance)
+                connect(p, origin, n, (q, q_err, extent), *normal, *area, *radiance)
             }
             LightSource::Hemisphere { radiance } => {
                 // Cosine-weighted about the surface normal; only upward directions see the sky.
@@ -130,7 +145,7 @@ impl LightSource {
                 center,
                 radius,
                 radiance,
-            } => sample_sphere(p, n, *center, *radius, *radiance, u, v),
+            } => sample_sphere(p, origin, n, *center, *radius, *radiance, u, v),
             LightSource::Mesh {
                 triangles,
                 radiance,
@@ -142,10 +157,20 @@ impl LightSource {
                 // Uniform point on the triangle (square-root warp).
                 let su = u.sqrt();
                 let q = a * (1.0 - su) + b * (su * (1.0 - v)) + c * (su * v);
+                let q_err = gamma(7) * a.abs().max(b.abs()).max(c.abs()).max_element();
+                let extent = (a - q).abs().max((b - q).abs()).max((c - q).abs());
                 // Two-sided: the normal that faces p.
                 let ng = (b - a).cross(c - a).normalize_or_zero();
                 let facing = if ng.dot(p - q) >= 0.0 { ng } else { -ng };
-                connect(p, n, q, facing, *total_area, radiance[i])
+                connect(
+                    p,
+                    origin,
+                    n,
+                    (q, q_err, extent.max_element()),
+                    facing,
+                    *total_area,
+                    radiance[i],
+                )
             }
         }
     }
@@ -154,8 +179,10 @@ impl LightSource {
 /// Samples the sphere from `p`: uniformly in its cone of directions from
 /// outside (pdf = 1 / 2π(1 − cos θmax)), uniformly over all directions from
 /// inside (pdf = 1 / 4π). The shadow ray ends just before the surface.
+#[allow(clippy::too_many_arguments)]
 fn sample_sphere(
     p: Vec3,
+    origin: Vec3,
     n: Vec3,
     center: Vec3,
     radius: f32,
@@ -204,17 +231,22 @@ fn sample_sphere(
     if !(t > 0.0 && t.is_finite()) {
         return None;
     }
-    let hit = p + t * dir;
-    let n_light = (hit - center).normalize_or_zero();
+    let n_light = (p + t * dir - center).normalize_or_zero();
+    // Reprojected onto the sphere, as for camera hits (shade.rs).
+    let hit = center + radius * n_light;
     let facing = if n_light.dot(p - hit) >= 0.0 {
         n_light
     } else {
         -n_light
     };
-    let end = offset_origin(hit, facing);
+    // Stop short of the sphere by the error of `hit` (γ of |center| + r)
+    // plus that of the ray/sphere test from `origin`, whose root errs by
+    // ~γ times the distance to the sphere.
+    let err = gamma(8) * (center.abs().max_element() + radius + (hit - origin).abs().max_element());
+    let end = offset_by(hit, facing, err);
     let cos_surface = n.dot(dir);
     (cos_surface > 0.0).then(|| LightSample {
-        direction: end - p,
+        direction: end - origin,
         t_max: 1.0,
         weight: radiance / pdf,
         cos_surface,
@@ -224,11 +256,14 @@ fn sample_sphere(
 /// A connection from `p` (surface normal `n`) to point `q` on an area
 /// emitter of normal `n_light`, which emits only toward its side:
 /// pdf in solid angle = d² / (area · cos θ_light). One square root and one
-/// division serve both cosines and the pdf.
+/// division serve both cosines and the pdf. The shadow ray runs from
+/// `origin` to just in front of `q`, which lies within `q_err` of the
+/// emitter's triangles, all of whose vertices are within `extent` of `q`.
 fn connect(
     p: Vec3,
+    origin: Vec3,
     n: Vec3,
-    q: Vec3,
+    (q, q_err, extent): (Vec3, f32, f32),
     n_light: Vec3,
     area: f32,
     radiance: Vec3,
@@ -241,10 +276,13 @@ fn connect(
     if !(cos_light > 0.0 && cos_surface > 0.0) {
         return None;
     }
-    // End the shadow ray just in front of the emitter so it cannot hit it.
-    let end = offset_origin(q, n_light);
+    // End the shadow ray just in front of the emitter so it cannot hit it:
+    // beyond q's own error, and beyond the rounding of the ray/triangle
+    // test from `origin`, ~γ₈ times the distance to the emitter's far corner.
+    let reach = (q - origin).abs().max_element() + extent;
+    let end = offset_by(q, n_light, q_err + gamma(8) * reach);
     Some(LightSample {
-        direction: end - p,
+        direction: end - origin,
         t_max: 1.0,
         weight: radiance * (area * cos_light * inv_dist * inv_dist),
         cos_surface,

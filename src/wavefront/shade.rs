@@ -11,7 +11,7 @@ use glam::Vec3;
 use crate::integrator::bsdf::Surface;
 use crate::integrator::lights::LightSet;
 use crate::integrator::{Settings, View};
-use crate::ray::{Hits, offset_origin};
+use crate::ray::{Hits, gamma, offset_by};
 use crate::sampling::warp;
 use crate::scene::{Geometry, Primitive};
 
@@ -34,6 +34,8 @@ struct SurfacePoint {
     ns: Vec3,
     /// Whether the ray hit the front (the side the geometric normal points to).
     front: bool,
+    /// How far off the surface to start rays leaving `p` (see [`offset_by`]).
+    err: f32,
 }
 
 fn surface_point(
@@ -45,27 +47,68 @@ fn surface_point(
     dir: Vec3,
     t: f32,
 ) -> SurfacePoint {
-    let (p, ng, ns) = match geometry.primitive(prim) {
+    let (p, ng, ns, err) = match geometry.primitive(prim) {
         Primitive::Triangle(i) => {
             let tris = &geometry.triangles;
             let [a, b, c] = tris.vertices(i);
-            // Barycentric reconstruction is more accurate than o + t·d.
-            let p = (1.0 - u - v) * a + u * b + v * c;
             let ng = (b - a).cross(c - a).normalize_or(Vec3::Y);
-            (p, ng, tris.shading_normal(i, u, v))
+            // The point where the ray meets the triangle's plane, in f64
+            // and rounded once. Interpolating the f32 barycentrics would
+            // be off by ~ε times the triangle's size along the surface
+            // (0.1 on a 1e6 ground plane), and o + t·d by the error of t.
+            let (a64, o64, d64) = (a.as_dvec3(), origin.as_dvec3(), dir.as_dvec3());
+            let n64 = (b.as_dvec3() - a64).cross(c.as_dvec3() - a64);
+            let t64 = (a64 - o64).dot(n64) / d64.dot(n64);
+            let p = if t64.is_finite() {
+                (o64 + t64 * d64).as_vec3()
+            } else {
+                (1.0 - u - v) * a + u * b + v * c
+            };
+            // Off-plane error of p: its rounding to f32 (½ ULP per axis,
+            // bounded by γ₁|p|), the f64 arithmetic before it (≪ 1e-12 of
+            // the magnitudes), and above all the rounding of the
+            // ray/triangle test that a new ray from near p makes: it
+            // works with vertices relative to the ray origin, sheared, so
+            // it errs by up to ~γ₈ times the distance R from p to the
+            // triangle's farthest vertex.
+            let r = (a - p)
+                .abs()
+                .max((b - p).abs())
+                .max((c - p).abs())
+                .max_element();
+            let abs_n = ng.abs();
+            let err = gamma(1) * abs_n.dot(p.abs())
+                + 1e-12 * (origin.abs().max_element() + (t * dir).abs().max_element())
+                + gamma(8) * r;
+            (p, ng, tris.shading_normal(i, u, v), err)
         }
         Primitive::Sphere(i) => {
             let s = &geometry.spheres;
             let (c, r) = (s.center[i], s.radius[i]);
-            let n = (origin + t * dir - c).normalize_or(Vec3::Y);
+            // Relative to the centre: o − c is exact when both are far from
+            // the origin (Sterbenz), so the normal is accurate to the
+            // sphere's size, not to the float spacing of o + t·d (1/128
+            // at 1e5, 10% of the shading on a unit sphere there).
+            let n = ((origin - c) + t * dir).normalize_or(Vec3::Y);
             // Reproject onto the sphere to cancel the error of o + t·d.
-            (c + r * n, n, n)
+            // What is left: rounding c + r·n (γ₁ of |c| + r) and |n| ≠ 1
+            // (γ₂ r), and the error of the ray/sphere test from the new
+            // origin, whose inside/outside decision |o − c|² − r² errs by
+            // ~γ₃ r² (a distance of γ₃ r) after o − c errs by γ₁ r.
+            let err = gamma(8) * (c.abs().max_element() + r);
+            (c + r * n, n, n, err)
         }
     };
     let front = ng.dot(dir) < 0.0;
     let ng = if front { ng } else { -ng };
     let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
-    SurfacePoint { p, ng, ns, front }
+    SurfacePoint {
+        p,
+        ng,
+        ns,
+        front,
+        err,
+    }
 }
 
 /// Shades every path of the wave. Paths that missed or ended are marked
@@ -127,13 +170,13 @@ pub fn shade(
             }
             Surface::Diffuse { albedo } => {
                 let f = surface.f();
-                let p_out = offset_origin(sp.p, sp.ng);
+                let p_out = offset_by(sp.p, sp.ng, sp.err);
                 if depth < settings.max_depth && settings.counts_bounce(depth + 1) {
                     let beta = paths.throughput[i] * f;
                     if settings.hemisphere {
                         direct_hemisphere(inputs, paths, i, p_out, sp.ns, beta, probes);
                     } else {
-                        direct_lights(inputs, paths, i, p_out, sp.ns, beta, shadow);
+                        direct_lights(inputs, paths, i, sp.p, p_out, sp.ns, beta, shadow);
                     }
                 }
                 paths.alive[i] = depth + 1 < settings.max_depth
@@ -158,12 +201,18 @@ fn on_miss(inputs: &ShadeInputs, paths: &mut Paths, i: usize, dir: Vec3) {
     }
 }
 
-/// Next-event estimation: `-l` samples per area-like light, one per delta light.
+/// Next-event estimation: `-l` samples per area-like light, one per delta
+/// light. Distances and angles are measured from the surface point `p`;
+/// only the shadow rays start from the offset point `p_out`, so the offset
+/// (large where the error bound is: 1 on a 2e6-wide ground plane) cannot
+/// bias the lighting.
+#[allow(clippy::too_many_arguments)]
 fn direct_lights(
     inputs: &ShadeInputs,
     paths: &mut Paths,
     i: usize,
     p: Vec3,
+    p_out: Vec3,
     n: Vec3,
     beta: Vec3,
     shadow: &mut ShadowRays,
@@ -178,12 +227,12 @@ fn direct_lights(
         for _ in 0..count {
             let (u, v) = paths.stream[i].next_2d();
             let w = paths.stream[i].next_1d();
-            let Some(s) = light.sample(p, n, u, v, w) else {
+            let Some(s) = light.sample(p, p_out, n, u, v, w) else {
                 continue;
             };
             let contribution = beta * s.weight * (s.cos_surface * inv_count);
             if contribution.max_element() > 0.0 {
-                shadow.push(i, p, s.direction, s.t_max, contribution);
+                shadow.push(i, p_out, s.direction, s.t_max, contribution);
             }
         }
     }
