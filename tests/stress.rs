@@ -1289,3 +1289,47 @@ fn spheres_far_huge_and_tiny_match_the_closed_form() {
         1e-3,
     );
 }
+
+/// A sphere smaller than the float spacing at its centre (radius 1e-3 at
+/// 1e5, where the spacing is 1/128) is still a sphere: its centre and
+/// radius are exact, and the ray/sphere test, which works relative to the
+/// centre, finds it (`Accel::None` does). Seen with -m 0 as an emitter of
+/// radiance 1, every pixel whose centre ray passes well inside it must be
+/// exactly 1.
+///
+/// Fails with the SAH BVH: the sphere's bounding box is computed as
+/// `center ± radius` in f32 (`Spheres::bounds`, src/scene/geometry.rs),
+/// which rounds to the centre itself, so the box is a point and the slab
+/// test rejects every ray that does not pass exactly through the centre.
+/// The fix belongs there (or in the BVH build): round sphere bounds
+/// outward, e.g. to the next float below `c − r` and above `c + r`.
+#[test]
+#[ignore = "BVH: sphere bounds center ± radius are not rounded outward; a sphere smaller than the float spacing at its centre gets a point box and is missed"]
+fn sphere_smaller_than_the_float_spacing_is_seen() {
+    let (c, r) = (FAR, 1e-3f32);
+    let mut b = Builder::default();
+    let m = b.material(Material::Emission {
+        radiance: Vec3::ONE,
+        one_sided: false,
+    });
+    b.sphere(c, r, m);
+    // 1/64 from the centre: exactly representable at 1e5.
+    let eye = Vec3::new(0.0, 0.0, 1.0 / 64.0);
+    let (w, h) = (21, 21);
+    let scene = b.build(camera(c + eye, -eye, Vec3::Y, 10.0, h));
+    let image = render(&scene, &settings(w, h, 1, 0, 0), 2);
+    let mut inside = 0;
+    for row in 0..h {
+        for x in 0..w {
+            let d = to_d(pixel_ray(&scene, w, h, x, row)).normalize();
+            let o = to_d(eye);
+            let miss = (o - o.dot(d) * d).length();
+            if miss < 0.9 * r as f64 {
+                inside += 1;
+                let got = image.pixels[(row * w + x) as usize];
+                assert_eq!(got, Vec3::ONE, "pixel ({x}, {row}) missed the sphere");
+            }
+        }
+    }
+    assert!(inside > 50, "{inside} pixels inside");
+}
