@@ -68,7 +68,9 @@ fn scenes(c: &mut Criterion) {
 }
 
 fn batch_sizes(c: &mut Criterion) {
-    let Some(scene) = scene("sky/CBbunny.dae") else { return };
+    let Some(scene) = scene("sky/CBbunny.dae") else {
+        return;
+    };
     let bvh = Bvh::build(&scene.geometry, Accel::Sah);
     let renderer = Renderer::new(&scene, &bvh);
     let mut group = c.benchmark_group("batch_size_CBbunny");

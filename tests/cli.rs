@@ -193,7 +193,7 @@ fn ctrl_c_writes_what_was_rendered() {
     let out = scratch("interrupted.exr");
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
     // Far more work than the test waits for.
-    let mut child = Command::new(env!("CARGO_BIN_EXE_wavepath"))
+    let child = Command::new(env!("CARGO_BIN_EXE_wavepath"))
         .args([
             "-q",
             "-s",

@@ -340,7 +340,7 @@ fn adaptive_and_fixed_sampling_agree() {
         adaptive
             .samples
             .iter()
-            .all(|&n| n >= 16 && n <= 256 && n % 16 == 0)
+            .all(|&n| (16..=256).contains(&n) && n % 16 == 0)
     );
     let est = channel(&adaptive, 1);
     // Stopping when the interval is small biases by far less than the tolerance.

@@ -130,11 +130,15 @@ impl Spheres {
         self.radius.is_empty()
     }
 
+    /// Conservative bounds: `center ± radius` rounded outward, so a sphere
+    /// smaller than the float spacing at its centre still gets a box that
+    /// contains it (rounding to nearest would collapse the box to a point).
     pub fn bounds(&self, i: usize) -> Aabb {
         let r = Vec3::splat(self.radius[i]);
+        let (lo, hi) = (self.center[i] - r, self.center[i] + r);
         Aabb {
-            min: self.center[i] - r,
-            max: self.center[i] + r,
+            min: Vec3::new(lo.x.next_down(), lo.y.next_down(), lo.z.next_down()),
+            max: Vec3::new(hi.x.next_up(), hi.y.next_up(), hi.z.next_up()),
         }
     }
 }
