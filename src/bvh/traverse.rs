@@ -207,6 +207,41 @@ fn leaf_spheres(spheres: &[PackedSphere], o: Vec3, d: Vec3, best: &mut Closest, 
     }
 }
 
+/// Sorts the children of `node` hit by the ray (`mask`, entry distances
+/// `t_enter`) by distance, pushes all but the nearest far-to-near and
+/// returns the nearest. An insertion sort: rarely more than 2-3 are hit.
+#[inline(always)]
+fn push_children(
+    node: &WideNode,
+    mut mask: u32,
+    t_enter: Lanes,
+    stack: &mut Stack,
+    sp: &mut usize,
+) -> ChildRef {
+    let t_enter = t_enter.to_array();
+    let mut hits = [Entry::default(); WIDTH];
+    let mut n = 0;
+    while mask != 0 {
+        let slot = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        let e = Entry {
+            child: node.child[slot].0,
+            t: t_enter[slot],
+        };
+        let mut j = n;
+        while j > 0 && hits[j - 1].t < e.t {
+            hits[j] = hits[j - 1];
+            j -= 1;
+        }
+        hits[j] = e;
+        n += 1;
+    }
+    // hits is sorted far..near; push all but the last (nearest).
+    stack[*sp..*sp + n - 1].copy_from_slice(&hits[..n - 1]);
+    *sp += n - 1;
+    ChildRef(hits[n - 1].child)
+}
+
 /// Closest hit along `o + t·d`, `t ∈ [0, t_max]`.
 #[inline]
 pub(crate) fn closest(
@@ -236,33 +271,9 @@ pub(crate) fn closest(
         if !current.is_leaf() {
             let node = &scene.nodes[current.index()];
             work.nodes += 1;
-            let (mut mask, t_enter) = rb.test(node, best.t);
+            let (mask, t_enter) = rb.test(node, best.t);
             if mask != 0 {
-                // Order hit children by entry distance (insertion sort on at
-                // most WIDTH entries), continue with the nearest, push the rest
-                // far-to-near.
-                let t_enter = t_enter.to_array();
-                let mut hits = [Entry::default(); WIDTH];
-                let mut n = 0;
-                while mask != 0 {
-                    let slot = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let e = Entry {
-                        child: node.child[slot].0,
-                        t: t_enter[slot],
-                    };
-                    let mut j = n;
-                    while j > 0 && hits[j - 1].t < e.t {
-                        hits[j] = hits[j - 1];
-                        j -= 1;
-                    }
-                    hits[j] = e;
-                    n += 1;
-                }
-                // hits is sorted far..near; push all but the last (nearest).
-                stack[sp..sp + n - 1].copy_from_slice(&hits[..n - 1]);
-                sp += n - 1;
-                current = ChildRef(hits[n - 1].child);
+                current = push_children(node, mask, t_enter, stack, &mut sp);
                 continue;
             }
         } else {
@@ -310,20 +321,17 @@ pub(crate) fn any(
     let rb = RayBox::new(o, d);
     let mut tri: Option<RayTri> = None;
     let mut sp = 0usize;
-    stack[0].child = scene.root.0;
-    sp += 1;
-    while sp > 0 {
-        sp -= 1;
-        let current = ChildRef(stack[sp].child);
+    let mut current = scene.root;
+    // Nearest first here too: occluders close to the origin (often the
+    // surface's own neighbourhood) are found, and the ray stopped, sooner.
+    loop {
         if !current.is_leaf() {
             let node = &scene.nodes[current.index()];
             work.nodes += 1;
-            let (mut mask, _) = rb.test(node, t_max);
-            while mask != 0 {
-                let slot = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                stack[sp].child = node.child[slot].0;
-                sp += 1;
+            let (mask, t_enter) = rb.test(node, t_max);
+            if mask != 0 {
+                current = push_children(node, mask, t_enter, stack, &mut sp);
+                continue;
             }
         } else {
             let (first, count) = (current.index(), current.count());
@@ -344,8 +352,12 @@ pub(crate) fn any(
                 }
             }
         }
+        if sp == 0 {
+            return false;
+        }
+        sp -= 1;
+        current = ChildRef(stack[sp].child);
     }
-    false
 }
 
 /// Brute force closest hit: every primitive, no hierarchy.
