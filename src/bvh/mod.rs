@@ -26,8 +26,8 @@
 //!
 //! Memory: a wide node is 256 bytes (8 × 6 bounds + 8 child references,
 //! cache-line aligned), a triangle group 320 bytes (9 coordinates and an id
-//! for each of 8 triangles). With the tuned SAH this comes to about 55–60
-//! bytes per triangle on the CS184 meshes (see `PERF.md`).
+//! for each of 8 triangles). With the tuned SAH this comes to 56–74 bytes
+//! per triangle on the CS184 meshes and procedural meshes (see `PERF.md`).
 //!
 //! [`Accel::None`] skips the hierarchy and tests every primitive; it is the
 //! reference the property tests check the others against and the "before"
@@ -35,8 +35,9 @@
 //!
 //! Code generation: all SIMD goes through `wide`, so it is portable and
 //! needs no `unsafe`; on the default x86-64 target an 8-lane register is
-//! two SSE registers. Building with `-C target-cpu=x86-64-v3` (AVX2) makes
-//! them native and measured up to ~1.4× faster on incoherent rays (PERF.md).
+//! two SSE registers. `-C target-cpu=x86-64-v3` (AVX2) makes them native;
+//! on the shared benchmark machine that gave no consistent gain (PERF.md),
+//! so no special flags are needed.
 
 mod build;
 mod flatten;
