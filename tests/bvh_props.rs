@@ -212,6 +212,102 @@ fn degenerate_inputs() {
     }
 }
 
+/// Axis-parallel rays travelling exactly in the plane of a box face: the
+/// slab test must count the face as inside (as brute force does), for
+/// both signs of zero.
+#[test]
+fn rays_in_box_face_planes() {
+    // Two triangles at x = 1 meeting along the line y = 0, one above and
+    // one below; plus a grid of quads so that leaf boxes have faces at y = 0
+    // and z = 0.
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for (y0, y1) in [(-1.0, 0.0), (0.0, 1.0)] {
+        for (z0, z1) in [(-1.0, 0.0), (0.0, 1.0)] {
+            let k = positions.len() as u32;
+            positions.extend([
+                Vec3::new(1.0, y0, z0),
+                Vec3::new(1.0, y1, z0),
+                Vec3::new(1.0, y1, z1),
+                Vec3::new(1.0, y0, z1),
+            ]);
+            indices.push([k, k + 1, k + 2]);
+            indices.push([k, k + 2, k + 3]);
+        }
+    }
+    // Only the lower half: the ray along y = 0 touches its top edge only.
+    let lower: Vec<[u32; 3]> = indices[..2].to_vec();
+    for idx in [indices, lower] {
+        let g = geometry(positions.clone(), idx, Vec::new());
+        let mut rays = Rays::default();
+        for dy in [0.0f32, -0.0] {
+            for dz in [0.0f32, -0.0] {
+                rays.push(Vec3::ZERO, Vec3::new(1.0, dy, dz), f32::INFINITY);
+                rays.push(
+                    Vec3::new(0.0, 0.0, -0.5),
+                    Vec3::new(1.0, dy, dz),
+                    f32::INFINITY,
+                );
+                rays.push(Vec3::new(0.0, -0.5, 0.0), Vec3::new(2.0, dy, dz), 10.0);
+            }
+        }
+        let hits = compare(&g, &rays).unwrap();
+        assert!(hits > 0);
+    }
+}
+
+#[test]
+fn accel_names_round_trip() {
+    for a in [Accel::Sah, Accel::Median, Accel::None] {
+        assert_eq!(a.to_string().parse::<Accel>(), Ok(a));
+    }
+    assert!("bogus".parse::<Accel>().is_err());
+}
+
+#[test]
+fn stats_and_cost_add_up() {
+    let positions = vec![
+        Vec3::new(-1.0, -1.0, 1.0),
+        Vec3::new(1.0, -1.0, 1.0),
+        Vec3::new(0.0, 1.0, 1.0),
+    ];
+    let g = geometry(
+        positions,
+        vec![[0, 1, 2]; 100],
+        vec![(Vec3::new(0.0, 0.0, 5.0), 1.0)],
+    );
+    let mut rays = Rays::default();
+    for i in 0..37 {
+        rays.push(
+            Vec3::ZERO,
+            Vec3::new(i as f32 * 0.05 - 0.9, 0.1, 1.0),
+            f32::INFINITY,
+        );
+    }
+    for accel in [Accel::Sah, Accel::Median, Accel::None] {
+        let bvh = Bvh::build(&g, accel);
+        let mut hits = Hits::default();
+        let mut stats = TraversalStats::default();
+        let mut cost = vec![0u32; rays.len()];
+        bvh.intersect(&rays, &mut hits, &mut stats, Some(&mut cost));
+        assert_eq!(stats.rays, rays.len() as u64);
+        let total: u64 = cost.iter().map(|&c| c as u64).sum();
+        assert_eq!(
+            total,
+            stats.nodes_visited + stats.primitives_tested,
+            "{accel}"
+        );
+        assert!(
+            cost.iter().all(|&c| c > 0),
+            "{accel}: every ray costs something"
+        );
+        let mut occ = Vec::new();
+        bvh.occluded(&rays, &mut occ, &mut stats);
+        assert_eq!(stats.rays, 2 * rays.len() as u64);
+        assert!(bvh.memory_bytes() > 0 && bvh.primitive_count() == 101);
+    }
+}
+
 /// Small deterministic generator (xorshift32) for the real-mesh rays.
 struct Rng(u32);
 

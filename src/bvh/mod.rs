@@ -252,6 +252,12 @@ impl Bvh {
     ///
     /// `cost`, when given (length ≥ `rays.len()`), receives per ray the
     /// number of nodes visited plus primitives tested.
+    ///
+    /// A ray hits at `t ∈ [0, t_max]` (both ends included; surfaces
+    /// touched exactly at an edge or vertex count). Rays with a zero or
+    /// non-finite direction, a non-finite origin, or `t_max` < 0 or NaN
+    /// never hit. Spheres report the nearest root in range (the far one
+    /// when the origin is inside).
     pub fn intersect(
         &self,
         rays: &Rays,

@@ -21,9 +21,14 @@
 //! by `1 + 2γ₃` (γₙ = nε/(1−nε)), which bounds the error of the subtraction
 //! and the multiplication.
 //!
-//! A zero direction component would give `inv = ±∞` and `0·∞ = NaN` when
-//! the origin lies on a slab plane; such components are replaced by a tiny
-//! value of the same sign, which gives the same answer everywhere else.
+//! A zero direction component gives `inv = ±∞`: the slab distances are ±∞
+//! (the ray never crosses that plane) unless the origin lies exactly on the
+//! plane, where `0·∞ = NaN`. Such a ray runs inside the box's face, and the
+//! face counts as part of the box (brute force would report a hit on a
+//! triangle edge lying there), so NaN must mean "no constraint". The
+//! running `max`/`min` are written as `candidate.max(running)`, which maps
+//! to `maxps`: when either operand is NaN it returns the second, so a NaN
+//! candidate is simply ignored.
 
 use glam::Vec3;
 
@@ -59,11 +64,8 @@ struct RayBox {
 impl RayBox {
     #[inline(always)]
     fn new(o: Vec3, d: Vec3) -> RayBox {
-        let inv = |x: f32| {
-            let x = if x == 0.0 { 1e-30f32.copysign(x) } else { x };
-            1.0 / x
-        };
-        let inv = [inv(d.x), inv(d.y), inv(d.z)];
+        // ±0 gives ±∞, whose sign still picks the right near plane.
+        let inv = [1.0 / d.x, 1.0 / d.y, 1.0 / d.z];
         RayBox {
             o: [Lanes::splat(o.x), Lanes::splat(o.y), Lanes::splat(o.z)],
             inv: inv.map(Lanes::splat),
@@ -82,8 +84,10 @@ impl RayBox {
             let n = self.near[axis];
             let t0 = (b[n][axis] - self.o[axis]) * self.inv[axis];
             let t1 = (b[1 - n][axis] - self.o[axis]) * self.inv[axis];
-            t_enter = t_enter.fast_max(t0);
-            t_exit = t_exit.fast_min(t1);
+            // Candidate first: a NaN candidate (origin on the plane, zero
+            // direction) leaves the running bound unchanged.
+            t_enter = t0.fast_max(t_enter);
+            t_exit = t1.fast_min(t_exit);
         }
         let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(Lanes::splat(t_far));
         (t_enter.simd_le(t_exit).to_bitmask(), t_enter)
@@ -107,15 +111,16 @@ pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], rays: &Ray8Src, start: usize) -> u
     let mut t_enter = Lanes::ZERO;
     let mut t_exit = Lanes::splat(f32::INFINITY);
     for axis in 0..3 {
-        let d = load(rays.dir[axis]);
-        let d = d
-            .simd_eq(Lanes::ZERO)
-            .select(Lanes::splat(1e-30).copysign(d), d);
-        let inv = Lanes::ONE / d;
-        let t0 = (Lanes::splat(bounds[0][axis]) - o[axis]) * inv;
-        let t1 = (Lanes::splat(bounds[1][axis]) - o[axis]) * inv;
-        t_enter = t_enter.fast_max(t0.fast_min(t1));
-        t_exit = t_exit.fast_min(t0.fast_max(t1));
+        let inv = Lanes::ONE / load(rays.dir[axis]);
+        // Near plane per lane by the sign of the direction, exactly as the
+        // per-ray test picks it (sorting the two distances would mishandle
+        // the NaN of a ray lying in a face plane).
+        let positive = inv.simd_ge(Lanes::ZERO);
+        let (lo, hi) = (Lanes::splat(bounds[0][axis]), Lanes::splat(bounds[1][axis]));
+        let t0 = (positive.select(lo, hi) - o[axis]) * inv;
+        let t1 = (positive.select(hi, lo) - o[axis]) * inv;
+        t_enter = t0.fast_max(t_enter);
+        t_exit = t1.fast_min(t_exit);
     }
     let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(load(rays.t_max));
     t_enter.simd_le(t_exit).to_bitmask() & ((1u32 << (end - start)) - 1)
@@ -126,6 +131,13 @@ pub(crate) struct Ray8Src<'a> {
     pub org: [&'a [f32]; 3],
     pub dir: [&'a [f32]; 3],
     pub t_max: &'a [f32],
+}
+
+/// Rays that cannot hit anything: zero or non-finite direction, non-finite
+/// origin, or an empty (negative or NaN) interval.
+#[inline(always)]
+fn never_hits(o: Vec3, d: Vec3, t_max: f32) -> bool {
+    d == Vec3::ZERO || !d.is_finite() || !o.is_finite() || t_max.is_nan() || t_max < 0.0
 }
 
 /// Closest hit of one ray.
@@ -258,7 +270,7 @@ pub(crate) fn closest(
         u: 0.0,
         v: 0.0,
     };
-    if d == Vec3::ZERO || t_max.is_nan() || t_max < 0.0 {
+    if never_hits(o, d, t_max) {
         return best;
     }
     let rb = RayBox::new(o, d);
@@ -315,7 +327,7 @@ pub(crate) fn any(
     t_max: f32,
     work: &mut Work,
 ) -> bool {
-    if d == Vec3::ZERO || t_max.is_nan() || t_max < 0.0 {
+    if never_hits(o, d, t_max) {
         return false;
     }
     let rb = RayBox::new(o, d);
@@ -375,7 +387,7 @@ pub(crate) fn closest_brute(
         u: 0.0,
         v: 0.0,
     };
-    if d == Vec3::ZERO || t_max.is_nan() || t_max < 0.0 {
+    if never_hits(o, d, t_max) {
         return best;
     }
     let tri = RayTri::new(o, d);
@@ -393,7 +405,7 @@ pub(crate) fn any_brute(
     t_max: f32,
     work: &mut Work,
 ) -> bool {
-    if d == Vec3::ZERO || t_max.is_nan() || t_max < 0.0 {
+    if never_hits(o, d, t_max) {
         return false;
     }
     let tri = RayTri::new(o, d);
