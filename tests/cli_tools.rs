@@ -188,6 +188,23 @@ fn converge_makes_a_reference_with_its_noise_and_writes_csv_and_plot() {
         svg.starts_with("<svg") && svg.contains("hemisphere"),
         "{svg}"
     );
+
+    // Plot-only mode: curves from CSV files, named by file and estimator.
+    let o = wavepath_in(
+        &dir,
+        &["converge", "--plot-csv", "c.csv", "--plot", "again.svg"],
+    );
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let svg = std::fs::read_to_string(dir.join("again.svg")).unwrap();
+    assert!(
+        svg.contains("c hemisphere") && svg.contains("c light"),
+        "{svg}"
+    );
+    let o = wavepath_in(
+        &dir,
+        &["converge", "--plot-csv", "none.csv", "--plot", "x.svg"],
+    );
+    assert_refused(&o, "none.csv");
 }
 
 #[test]

@@ -95,8 +95,14 @@ pub struct ConvergeArgs {
     pub render: Args,
 
     /// Reference EXR: read, or written with --make-reference
-    #[arg(long = "ref", value_name = "EXR")]
-    pub reference: PathBuf,
+    #[arg(long = "ref", value_name = "EXR", required_unless_present = "plot_csv")]
+    pub reference: Option<PathBuf>,
+
+    /// Render nothing: plot relMSE against time from CSV files this command
+    /// wrote (comma-separated; e.g. several scenes, or another renderer's
+    /// numbers in the same columns) into --plot
+    #[arg(long = "plot-csv", value_name = "CSV", value_delimiter = ',')]
+    pub plot_csv: Vec<PathBuf>,
 
     /// Render the reference (-s spp, seed --seed + 1000003) with per-pixel
     /// standard-error channels, and stop
@@ -188,10 +194,16 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
             "converge: -f is not used; name the reference with --ref, outputs with --csv and --plot"
         );
     }
-    if Format::from_path(&args.reference).ok() != Some(Format::Exr) {
+    if !args.plot_csv.is_empty() {
+        return plot_csv_files(&args);
+    }
+    let Some(reference_path) = args.reference.clone() else {
+        bail!("converge: --ref is required");
+    };
+    if Format::from_path(&reference_path).ok() != Some(Format::Exr) {
         bail!(
             "{}: the reference must be an .exr file",
-            args.reference.display()
+            reference_path.display()
         );
     }
     if let Some(s) = args.seconds
@@ -271,21 +283,21 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
             eprintln!("interrupted: no reference written");
             return Ok(super::EXIT_INTERRUPTED);
         }
-        output::write_exr_with_error(&out.image, &args.reference)?;
+        output::write_exr_with_error(&out.image, &reference_path)?;
         println!(
             "wrote {} ({} spp in {secs:.1} s); its own relMSE, estimated from its variance: {:.3e}",
-            args.reference.display(),
+            reference_path.display(),
             settings.spp,
             metrics::rel_mse_from_variance(&out.image)
         );
         return Ok(0);
     }
 
-    let reference = super::compare::load(&args.reference)?;
+    let reference = super::compare::load(&reference_path)?;
     if (reference.width, reference.height) != (settings.width, settings.height) {
         bail!(
             "{} is {}x{} but the renders are {}x{} (give -r {} {})",
-            args.reference.display(),
+            reference_path.display(),
             reference.width,
             reference.height,
             settings.width,
@@ -298,12 +310,12 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     if reference.variance.iter().all(|v| *v == glam::Vec3::ZERO) {
         eprintln!(
             "warning: {} has no standard-error channels: its own noise is unknown and not subtracted",
-            args.reference.display()
+            reference_path.display()
         );
     } else {
         println!(
             "reference {}: own relMSE about {floor:.3e} (measured relMSE = true relMSE + this, in expectation)",
-            args.reference.display()
+            reference_path.display()
         );
     }
 
@@ -459,6 +471,65 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         eprintln!("interrupted: wrote the budgets finished so far");
         return Ok(super::EXIT_INTERRUPTED);
     }
+    Ok(0)
+}
+
+/// `--plot-csv`: one curve per (file, estimator) of relMSE against wall time.
+fn plot_csv_files(args: &ConvergeArgs) -> Result<i32> {
+    let Some(plot_path) = &args.plot else {
+        bail!("--plot-csv needs --plot <FILE.svg>");
+    };
+    let mut curves: Vec<Curve> = Vec::new();
+    for path in &args.plot_csv {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("{}: cannot read CSV", path.display()))?;
+        let mut lines = text.lines().enumerate();
+        let header: Vec<&str> = lines
+            .next()
+            .map(|(_, l)| l.split(',').map(str::trim).collect())
+            .unwrap_or_default();
+        let column = |name: &str| {
+            header
+                .iter()
+                .position(|h| *h == name)
+                .with_context(|| format!("{}: no '{name}' column in the header", path.display()))
+        };
+        let (ce, ct, cr) = (column("estimator")?, column("seconds")?, column("rel_mse")?);
+        let stem = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("csv")
+            .to_string();
+        for (i, line) in lines {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let f: Vec<&str> = line.split(',').map(str::trim).collect();
+            let number = |c: usize| -> Result<f64> {
+                f.get(c)
+                    .and_then(|v| v.parse::<f64>().ok())
+                    .with_context(|| {
+                        format!(
+                            "{}:{}: not a number in column {}",
+                            path.display(),
+                            i + 1,
+                            c + 1
+                        )
+                    })
+            };
+            let name = format!("{stem} {}", f.get(ce).copied().unwrap_or(""));
+            let point = (number(ct)?, number(cr)?);
+            match curves.iter_mut().find(|c| c.name == name) {
+                Some(c) => c.points.push(point),
+                None => curves.push(Curve {
+                    name,
+                    points: vec![point],
+                }),
+            }
+        }
+    }
+    plot::error_vs_time(plot_path, "relMSE vs render time", "relMSE", &curves, None)?;
+    println!("wrote {}", plot_path.display());
     Ok(0)
 }
 
