@@ -242,6 +242,11 @@ impl Bvh {
             tri_groups: &self.tri_groups,
             spheres: &self.spheres,
             root,
+            extent: self
+                .bounds
+                .iter()
+                .flatten()
+                .fold(0.0f32, |m, &x| m.max(x.abs())),
         })
     }
 

@@ -41,6 +41,29 @@ use crate::ray::NO_HIT;
 /// γ₃ = 3ε / (1 − 3ε) for f32 (ε = 2⁻²⁴, half an ULP of 1).
 const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::EPSILON * 0.5));
 
+/// Slack on the ray's `t_far` (the end of the ray, or the nearest hit so
+/// far) when culling boxes.
+///
+/// A triangle's `t` comes from different arithmetic than the slab
+/// distances of its box, so a ray that ends exactly on a triangle (or ties
+/// with the nearest hit) can see the box's entry slightly beyond the
+/// triangle's `t`. The rounding errors of both are a few ULPs of the
+/// *coordinates* involved, which, divided by the ray's speed along its
+/// major axis, can be far more than a few ULPs of a small `t`. So the cull
+/// distance is `t_far·(1 + 32ε) + 32ε·M/|d|∞` with `M` bounding the
+/// magnitude of every coordinate (scene bounds and origin). This is a
+/// generous bound, not a proof; the property tests end rays exactly at
+/// their brute-force hits to check it. The cost is a few extra box visits
+/// within ~1e-6 of the scene size from the end of a ray.
+const SLACK_ULPS: f32 = 32.0 * f32::EPSILON;
+const T_FAR_MARGIN: f32 = 1.0 + SLACK_ULPS;
+
+/// Absolute part of the cull slack for a ray (see [`SLACK_ULPS`]).
+#[inline(always)]
+fn cull_slack(extent: f32, o: Vec3, d: Vec3) -> f32 {
+    SLACK_ULPS * (extent + o.abs().max_element()) / d.abs().max_element()
+}
+
 /// Stack capacity: the builder bounds the binary depth to well under 96,
 /// and a wide level pushes at most `WIDTH − 1` entries.
 pub(crate) const STACK_SIZE: usize = 96 * (WIDTH - 1) + 1;
@@ -51,6 +74,8 @@ pub(crate) struct Scene<'a> {
     pub tri_groups: &'a [TriGroup],
     pub spheres: &'a [PackedSphere],
     pub root: ChildRef,
+    /// Largest coordinate magnitude in the scene bounds.
+    pub extent: f32,
 }
 
 /// Per-ray constants of the slab test.
@@ -59,18 +84,27 @@ struct RayBox {
     inv: [Lanes; 3],
     /// 0 if the direction along the axis is positive (enter at min), else 1.
     near: [usize; 3],
+    /// Absolute slack added to `t_far` when culling (see [`SLACK_ULPS`]).
+    slack: f32,
 }
 
 impl RayBox {
     #[inline(always)]
-    fn new(o: Vec3, d: Vec3) -> RayBox {
+    fn new(o: Vec3, d: Vec3, extent: f32) -> RayBox {
         // ±0 gives ±∞, whose sign still picks the right near plane.
         let inv = [1.0 / d.x, 1.0 / d.y, 1.0 / d.z];
         RayBox {
             o: [Lanes::splat(o.x), Lanes::splat(o.y), Lanes::splat(o.z)],
             inv: inv.map(Lanes::splat),
             near: inv.map(|i| if i >= 0.0 { 0 } else { 1 }),
+            slack: cull_slack(extent, o, d),
         }
+    }
+
+    /// Boxes entered beyond this are culled (see [`SLACK_ULPS`]).
+    #[inline(always)]
+    fn cull(&self, t_far: f32) -> f32 {
+        t_far * T_FAR_MARGIN + self.slack
     }
 
     /// Returns the mask of children hit within `[0, t_far]` and their entry distances.
@@ -89,7 +123,8 @@ impl RayBox {
             t_enter = t0.fast_max(t_enter);
             t_exit = t1.fast_min(t_exit);
         }
-        let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(Lanes::splat(t_far));
+        let t_exit =
+            (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(Lanes::splat(self.cull(t_far)));
         (t_enter.simd_le(t_exit).to_bitmask(), t_enter)
     }
 }
@@ -122,7 +157,18 @@ pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], rays: &Ray8Src, start: usize) -> u
         t_enter = t0.fast_max(t_enter);
         t_exit = t1.fast_min(t_exit);
     }
-    let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(load(rays.t_max));
+    // Cull distance with the slack of `RayBox::cull`, lane by lane.
+    let extent = Lanes::splat(
+        bounds[0]
+            .iter()
+            .chain(&bounds[1])
+            .fold(0.0f32, |m, &x| m.max(x.abs())),
+    );
+    let max_abs = |v: &[Lanes; 3]| v[0].abs().fast_max(v[1].abs()).fast_max(v[2].abs());
+    let d = [load(rays.dir[0]), load(rays.dir[1]), load(rays.dir[2])];
+    let slack = Lanes::splat(SLACK_ULPS) * (extent + max_abs(&o)) / max_abs(&d);
+    let t_cull = load(rays.t_max) * Lanes::splat(T_FAR_MARGIN) + slack;
+    let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(t_cull);
     t_enter.simd_le(t_exit).to_bitmask() & ((1u32 << (end - start)) - 1)
 }
 
@@ -273,7 +319,7 @@ pub(crate) fn closest(
     if never_hits(o, d, t_max) {
         return best;
     }
-    let rb = RayBox::new(o, d);
+    let rb = RayBox::new(o, d, scene.extent);
     // The triangle test's shear is set up at the first triangle leaf: most
     // camera rays of a typical scene never get that far.
     let mut tri: Option<RayTri> = None;
@@ -309,7 +355,7 @@ pub(crate) fn closest(
             }
             sp -= 1;
             let e = stack[sp];
-            if e.t <= best.t {
+            if e.t <= rb.cull(best.t) {
                 current = ChildRef(e.child);
                 break;
             }
@@ -330,7 +376,7 @@ pub(crate) fn any(
     if never_hits(o, d, t_max) {
         return false;
     }
-    let rb = RayBox::new(o, d);
+    let rb = RayBox::new(o, d, scene.extent);
     let mut tri: Option<RayTri> = None;
     let mut sp = 0usize;
     let mut current = scene.root;
