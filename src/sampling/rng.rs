@@ -1,11 +1,17 @@
 //! Counter-based sample streams.
 //!
-//! A [`SampleStream`] is a (seed, pixel, sample) triple plus a dimension
-//! counter. Dimensions 0–1 (the position within the pixel) come from an
-//! Owen-scrambled Sobol (0,2)-sequence, which stratifies every power-of-two
-//! prefix of a pixel's samples — so the jitter is well spread whether the
-//! pixel ends after 4 samples or 2048 (adaptive sampling). All later
-//! dimensions are independent hashes of the counter.
+//! A [`SampleStream`] is a (seed, pixel, sample) triple plus dimension
+//! counters. Two-dimensional draws — the position within the pixel, each
+//! light sample, each BSDF direction — come from a *padded* Owen-scrambled
+//! Sobol (0,2)-sequence (Burley, "Practical Hash-based Owen Scrambling",
+//! 2020): every pair of dimensions uses the same 2D sequence with its own
+//! index shuffle and scrambles. Each pair on its own stratifies every
+//! power-of-two prefix of a pixel's samples — so light and BSDF samples are
+//! well spread whether a pixel ends after 4 samples or 2048 (adaptive
+//! sampling) — while the shuffles decorrelate the pairs from each other.
+//! Owen scrambling keeps every draw uniformly distributed, so estimators
+//! stay unbiased. One-dimensional draws (roulette, picking a triangle) are
+//! independent hashes of a counter.
 
 /// A 32-bit integer hash with good avalanche (Wellons' `lowbias32`).
 #[inline]
@@ -81,6 +87,8 @@ pub struct SampleStream {
     /// Hash of (key, sample): the base of this sample's independent dimensions.
     base: u32,
     dimension: u32,
+    /// Next Sobol dimension pair (pair 0 is the position within the pixel).
+    pair: u32,
 }
 
 impl SampleStream {
@@ -91,17 +99,25 @@ impl SampleStream {
             sample,
             base: hash_words(&[key, sample]),
             dimension: 0,
+            pair: 1,
         }
     }
 
-    /// Position within the pixel, in [0, 1)²: a scrambled Sobol point,
-    /// shuffled per pixel so neighbouring pixels do not correlate.
-    pub fn pixel_offset(&self) -> (f32, f32) {
-        let index = nested_uniform_scramble(self.sample, hash32(self.key ^ 0x5bd1_e995));
+    /// This sample's point of Sobol dimension pair `pair`: the pixel's
+    /// samples in a shuffled order (so pairs do not correlate), each
+    /// coordinate Owen-scrambled (so neighbouring pixels do not either).
+    fn sobol_pair(&self, pair: u32) -> (f32, f32) {
+        let seed = hash_words(&[self.key, pair]);
+        let index = nested_uniform_scramble(self.sample, seed);
         let (x, y) = sobol_2d(index);
-        let x = nested_uniform_scramble(x, hash32(self.key ^ 0x1b87_3593));
-        let y = nested_uniform_scramble(y, hash32(self.key ^ 0xcc9e_2d51));
+        let x = nested_uniform_scramble(x, hash32(seed ^ 0x1b87_3593));
+        let y = nested_uniform_scramble(y, hash32(seed ^ 0xcc9e_2d51));
         (to_unit_float(x), to_unit_float(y))
+    }
+
+    /// Position within the pixel, in [0, 1)².
+    pub fn pixel_offset(&self) -> (f32, f32) {
+        self.sobol_pair(0)
     }
 
     /// The next independent uniform number in [0, 1): one hash of a Weyl
@@ -115,10 +131,12 @@ impl SampleStream {
         ))
     }
 
-    /// The next two independent uniform numbers.
+    /// The next two-dimensional draw, from the next Sobol dimension pair.
     #[inline]
     pub fn next_2d(&mut self) -> (f32, f32) {
-        (self.next_1d(), self.next_1d())
+        let point = self.sobol_pair(self.pair);
+        self.pair += 1;
+        point
     }
 }
 
@@ -168,6 +186,44 @@ mod tests {
         let nf = n as f64;
         let cov = sxy / nf - sx / nf * sy / nf;
         let corr = cov / ((sxx / nf - (sx / nf).powi(2)) * (syy / nf - (sy / nf).powi(2))).sqrt();
+        assert!(corr.abs() < 5.0 / nf.sqrt(), "correlation {corr}");
+    }
+
+    #[test]
+    fn every_dimension_pair_is_stratified() {
+        for pixel in [0u32, 17, 999] {
+            for pair in 0..6 {
+                let mut seen = [false; 64];
+                for s in 0..64 {
+                    let mut stream = SampleStream::new(11, pixel, s);
+                    for _ in 0..pair {
+                        stream.next_2d();
+                    }
+                    let (x, y) = stream.next_2d();
+                    let cell = (x * 8.0) as usize + 8 * (y * 8.0) as usize;
+                    assert!(!seen[cell], "pixel {pixel} pair {pair}: cell {cell} twice");
+                    seen[cell] = true;
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn dimension_pairs_are_not_correlated() {
+        // Across a pixel's samples, x of pair k and x of pair k+1 must not
+        // be correlated (a shared index order would make them equal).
+        let n = 4096;
+        let (mut sxy, mut sx, mut sy) = (0.0f64, 0.0f64, 0.0f64);
+        for s in 0..n {
+            let mut stream = SampleStream::new(5, 42, s);
+            let (a, _) = stream.next_2d();
+            let (b, _) = stream.next_2d();
+            sxy += (a * b) as f64;
+            sx += a as f64;
+            sy += b as f64;
+        }
+        let nf = n as f64;
+        let corr = (sxy / nf - sx / nf * sy / nf) * 12.0;
         assert!(corr.abs() < 5.0 / nf.sqrt(), "correlation {corr}");
     }
 
