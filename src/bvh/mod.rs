@@ -281,7 +281,7 @@ impl Bvh {
             // (counted as one node visit: the box test they did get).
             let candidates = match (&scene, self.accel) {
                 (_, Accel::None) => u32::MAX,
-                (Some(_), _) => traverse::may_hit(&self.bounds, &src, start),
+                (Some(scene), _) => traverse::may_hit(&self.bounds, scene.extent, &src, start),
                 (None, _) => 0,
             };
             for i in start..(start + WIDTH).min(n) {
@@ -337,7 +337,7 @@ impl Bvh {
         for start in (0..n).step_by(WIDTH) {
             let candidates = match (&scene, self.accel) {
                 (_, Accel::None) => u32::MAX,
-                (Some(_), _) => traverse::may_hit(&self.bounds, &src, start),
+                (Some(scene), _) => traverse::may_hit(&self.bounds, scene.extent, &src, start),
                 (None, _) => 0,
             };
             #[allow(clippy::needless_range_loop)] // i also indexes the ray arrays

@@ -58,10 +58,13 @@ const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::EPSILON * 0.
 const SLACK_ULPS: f32 = 32.0 * f32::EPSILON;
 const T_FAR_MARGIN: f32 = 1.0 + SLACK_ULPS;
 
-/// Absolute part of the cull slack for a ray (see [`SLACK_ULPS`]).
+/// Absolute part of the cull slack for a ray (see [`SLACK_ULPS`]):
+/// `32ε·(extent + |o|∞)/|d|∞`, with `1/|d|∞` taken as the smallest
+/// `|1/dᵢ|` (the same value, as division is correctly rounded and monotone).
 #[inline(always)]
-fn cull_slack(extent: f32, o: Vec3, d: Vec3) -> f32 {
-    SLACK_ULPS * (extent + o.abs().max_element()) / d.abs().max_element()
+fn cull_slack(extent: f32, o: Vec3, inv: [f32; 3]) -> f32 {
+    let min_inv = inv[0].abs().min(inv[1].abs()).min(inv[2].abs());
+    SLACK_ULPS * (extent + o.abs().max_element()) * min_inv
 }
 
 /// Stack capacity: the builder bounds the binary depth to well under 96,
@@ -97,7 +100,7 @@ impl RayBox {
             o: [Lanes::splat(o.x), Lanes::splat(o.y), Lanes::splat(o.z)],
             inv: inv.map(Lanes::splat),
             near: inv.map(|i| if i >= 0.0 { 0 } else { 1 }),
-            slack: cull_slack(extent, o, d),
+            slack: cull_slack(extent, o, inv),
         }
     }
 
@@ -139,14 +142,16 @@ impl RayBox {
 /// on a box that contains all children of the root, so it never rejects a
 /// ray the traversal would accept (IEEE operations are monotone).
 #[inline]
-pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], rays: &Ray8Src, start: usize) -> u32 {
+pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start: usize) -> u32 {
     let end = (start + WIDTH).min(rays.t_max.len());
     let load = |v: &[f32]| Lanes::from(&v[start..end]);
     let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
     let mut t_enter = Lanes::ZERO;
     let mut t_exit = Lanes::splat(f32::INFINITY);
+    let mut min_inv = Lanes::splat(f32::INFINITY);
     for axis in 0..3 {
         let inv = Lanes::ONE / load(rays.dir[axis]);
+        min_inv = inv.abs().fast_min(min_inv);
         // Near plane per lane by the sign of the direction, exactly as the
         // per-ray test picks it (sorting the two distances would mishandle
         // the NaN of a ray lying in a face plane).
@@ -158,15 +163,9 @@ pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], rays: &Ray8Src, start: usize) -> u
         t_exit = t1.fast_min(t_exit);
     }
     // Cull distance with the slack of `RayBox::cull`, lane by lane.
-    let extent = Lanes::splat(
-        bounds[0]
-            .iter()
-            .chain(&bounds[1])
-            .fold(0.0f32, |m, &x| m.max(x.abs())),
-    );
-    let max_abs = |v: &[Lanes; 3]| v[0].abs().fast_max(v[1].abs()).fast_max(v[2].abs());
-    let d = [load(rays.dir[0]), load(rays.dir[1]), load(rays.dir[2])];
-    let slack = Lanes::splat(SLACK_ULPS) * (extent + max_abs(&o)) / max_abs(&d);
+    // Same operations in the same order as `cull_slack`.
+    let max_abs_o = o[0].abs().fast_max(o[1].abs()).fast_max(o[2].abs());
+    let slack = Lanes::splat(SLACK_ULPS) * (Lanes::splat(extent) + max_abs_o) * min_inv;
     let t_cull = load(rays.t_max) * Lanes::splat(T_FAR_MARGIN) + slack;
     let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(t_cull);
     t_enter.simd_le(t_exit).to_bitmask() & ((1u32 << (end - start)) - 1)
