@@ -279,6 +279,44 @@ fn rays_in_box_face_planes() {
     }
 }
 
+/// A mesh large enough for the parallel build and flatten paths (which
+/// start above ~32k primitives), against brute force.
+#[test]
+fn large_mesh_parallel_build() {
+    let n = 230; // 2·230² ≈ 106k triangles
+    let mut positions = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, z) = (
+                i as f32 / n as f32 * 2.0 - 1.0,
+                j as f32 / n as f32 * 2.0 - 1.0,
+            );
+            positions.push(Vec3::new(x, 0.3 * (5.0 * x).sin() * (4.0 * z).cos(), z));
+        }
+    }
+    let idx = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    let mut indices = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            indices.push([idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)]);
+            indices.push([idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)]);
+        }
+    }
+    let spheres = vec![
+        (Vec3::new(0.2, 0.5, 0.1), 0.2),
+        (Vec3::new(-0.5, -0.4, 0.3), 0.3),
+    ];
+    let g = geometry(positions, indices, spheres);
+    let mut rng = Rng(12345);
+    let mut rays = Rays::default();
+    for _ in 0..300 {
+        let o = (rng.vec3() * 2.0 - Vec3::ONE) * 1.2;
+        let d = rng.vec3() * 2.0 - Vec3::ONE;
+        rays.push(o, d, f32::INFINITY);
+    }
+    assert!(compare(&g, &rays).unwrap() > 50);
+}
+
 #[test]
 fn accel_names_round_trip() {
     for a in [Accel::Sah, Accel::Median, Accel::None] {

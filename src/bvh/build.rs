@@ -99,6 +99,8 @@ pub(crate) enum BuildNode {
     },
     Inner {
         bounds: Aabb,
+        /// Primitives below this node.
+        count: u32,
         children: Box<[BuildNode; 2]>,
     },
 }
@@ -107,6 +109,13 @@ impl BuildNode {
     pub fn bounds(&self) -> &Aabb {
         match self {
             BuildNode::Leaf { bounds, .. } | BuildNode::Inner { bounds, .. } => bounds,
+        }
+    }
+
+    /// Primitives below this node.
+    pub fn count(&self) -> u32 {
+        match self {
+            BuildNode::Leaf { count, .. } | BuildNode::Inner { count, .. } => *count,
         }
     }
 }
@@ -194,6 +203,7 @@ fn build_node(ctx: &Ctx, prims: &mut [u32], offset: usize, depth: usize) -> Buil
     };
     BuildNode::Inner {
         bounds: bounds.aabb(),
+        count: n as u32,
         children: Box::new([l, r]),
     }
 }
@@ -393,6 +403,7 @@ fn make_leaf(ctx: &Ctx, prims: &mut [u32], offset: usize, bounds: Bounds) -> Bui
     let r = leaf(&prims[tris..], offset + tris);
     BuildNode::Inner {
         bounds: bounds.aabb(),
+        count: prims.len() as u32,
         children: Box::new([l, r]),
     }
 }

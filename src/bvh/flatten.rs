@@ -136,6 +136,9 @@ pub(crate) fn flatten(root: Option<&BuildNode>, order: &[u32], geometry: &Geomet
     flat
 }
 
+/// Interior children with more primitives than this are flattened in parallel.
+const PARALLEL_FLATTEN: u32 = 1 << 13;
+
 struct Ctx<'a> {
     flat: &'a mut Flat,
     order: &'a [u32],
@@ -185,6 +188,30 @@ impl Ctx<'_> {
         let mut hi = [[f32::NEG_INFINITY; WIDTH]; 3];
         let mut child = [ChildRef::EMPTY; WIDTH];
         let mut depth = 1;
+        // Large interior children are flattened on other threads into
+        // arrays of their own, appended (with their references shifted)
+        // when their slot comes.
+        let mut parallel: [Option<Flat>; WIDTH] = Default::default();
+        {
+            use rayon::prelude::*;
+            let big: Vec<(usize, &BuildNode)> = slots
+                .iter()
+                .enumerate()
+                .filter(|(_, n)| {
+                    matches!(n, BuildNode::Inner { .. }) && n.count() > PARALLEL_FLATTEN
+                })
+                .map(|(i, n)| (i, *n))
+                .collect();
+            if big.len() > 1 {
+                let done: Vec<(usize, Flat)> = big
+                    .into_par_iter()
+                    .map(|(i, n)| (i, flatten(Some(n), self.order, self.geometry)))
+                    .collect();
+                for (i, f) in done {
+                    parallel[i] = Some(f);
+                }
+            }
+        }
         for (slot, node) in slots.iter().enumerate() {
             let b = node.bounds();
             for axis in 0..3 {
@@ -194,6 +221,11 @@ impl Ctx<'_> {
             child[slot] = match node {
                 BuildNode::Leaf { start, count, .. } => {
                     self.emit_leaf(&self.order[*start as usize..(*start + *count) as usize])
+                }
+                BuildNode::Inner { .. } if parallel[slot].is_some() => {
+                    let sub = parallel[slot].take().unwrap();
+                    depth = depth.max(1 + sub.depth);
+                    self.append(sub)
                 }
                 BuildNode::Inner { .. } => {
                     let c = ChildRef::node(self.flat.nodes.len() as u32);
@@ -206,6 +238,34 @@ impl Ctx<'_> {
         n.bounds = [lo.map(Lanes::from), hi.map(Lanes::from)];
         n.child = child;
         depth
+    }
+
+    /// Appends a separately flattened subtree, shifting its node and leaf
+    /// references; returns the reference to its root.
+    fn append(&mut self, sub: Flat) -> ChildRef {
+        let node_base = self.flat.nodes.len() as u32;
+        let group_base = self.flat.tri_groups.len() as u32;
+        let sphere_base = self.flat.spheres.len() as u32;
+        self.flat.nodes.extend(sub.nodes.into_iter().map(|mut n| {
+            let lo_x = n.bounds[0][0].to_array();
+            let hi_x = n.bounds[1][0].to_array();
+            for (slot, c) in n.child.iter_mut().enumerate() {
+                if lo_x[slot] > hi_x[slot] {
+                    continue; // empty slot
+                }
+                *c = if !c.is_leaf() {
+                    ChildRef::node(c.index() as u32 + node_base)
+                } else if c.is_sphere() {
+                    ChildRef::leaf(true, c.index() as u32 + sphere_base, c.count() as u32)
+                } else {
+                    ChildRef::leaf(false, c.index() as u32 + group_base, c.count() as u32)
+                };
+            }
+            n
+        }));
+        self.flat.tri_groups.extend(sub.tri_groups);
+        self.flat.spheres.extend(sub.spheres);
+        ChildRef::node(node_base)
     }
 
     /// Copies a leaf's primitives (all of one kind) into the leaf arrays.
@@ -224,9 +284,11 @@ impl Ctx<'_> {
             ChildRef::leaf(true, first, prims.len() as u32)
         } else {
             let first = self.flat.tri_groups.len() as u32;
-            let groups = pack_triangles(prims, self.geometry);
-            let count = groups.len() as u32;
-            self.flat.tri_groups.extend(groups);
+            let tris = &self.geometry.triangles;
+            self.flat
+                .tri_groups
+                .extend(prims.chunks(TRI_WIDTH).map(|ids| TriGroup::new(ids, tris)));
+            let count = self.flat.tri_groups.len() as u32 - first;
             ChildRef::leaf(false, first, count)
         }
     }
@@ -236,13 +298,7 @@ impl Ctx<'_> {
 pub(crate) fn pack_triangles(prims: &[u32], geometry: &Geometry) -> Vec<TriGroup> {
     prims
         .chunks(TRI_WIDTH)
-        .map(|chunk| {
-            let tris: Vec<([Vec3; 3], u32)> = chunk
-                .iter()
-                .map(|&id| (geometry.triangles.vertices(id as usize), id))
-                .collect();
-            TriGroup::new(&tris)
-        })
+        .map(|ids| TriGroup::new(ids, &geometry.triangles))
         .collect()
 }
 

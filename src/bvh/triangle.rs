@@ -27,6 +27,8 @@
 
 use glam::Vec3;
 
+use crate::scene::Triangles;
+
 use super::{TRI_WIDTH, TriLanes};
 use crate::ray::NO_HIT;
 
@@ -42,17 +44,18 @@ pub(crate) struct TriGroup {
 }
 
 impl TriGroup {
-    pub fn new(tris: &[([Vec3; 3], u32)]) -> TriGroup {
-        debug_assert!(tris.len() <= TRI_WIDTH);
+    /// Packs triangles `ids` (at most [`TRI_WIDTH`]) of `tris`.
+    pub fn new(ids: &[u32], tris: &Triangles) -> TriGroup {
+        debug_assert!(ids.len() <= TRI_WIDTH);
         let mut v = [[[f32::NAN; TRI_WIDTH]; 3]; 3];
         let mut id = [NO_HIT; TRI_WIDTH];
-        for (lane, (verts, prim)) in tris.iter().enumerate() {
-            for (k, p) in verts.iter().enumerate() {
+        for (lane, &prim) in ids.iter().enumerate() {
+            for (k, p) in tris.vertices(prim as usize).iter().enumerate() {
                 v[k][0][lane] = p.x;
                 v[k][1][lane] = p.y;
                 v[k][2][lane] = p.z;
             }
-            id[lane] = *prim;
+            id[lane] = prim;
         }
         TriGroup {
             v: v.map(|vertex| vertex.map(TriLanes::from)),
