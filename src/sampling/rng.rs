@@ -61,21 +61,21 @@ fn nested_uniform_scramble(mut x: u32, seed: u32) -> u32 {
 
 /// The first two Sobol dimensions of point `i`: van der Corput and its
 /// (0,2)-partner, as 32-bit fixed-point values.
+///
+/// The second dimension's direction numbers are v_k = v_{k−1} ⊕ (v_{k−1} ≫ 1):
+/// read as polynomials over GF(2) they are (1 + z)^k, so the point is
+/// P(1 + z) for P(z) = Σ bit_k(i)·z^k. Since (1 + z)^(2^m) = 1 + z^(2^m),
+/// that substitution is five shift-xor butterflies instead of a loop over
+/// the bits of `i` (which are all set after index scrambling).
 #[inline]
 fn sobol_2d(i: u32) -> (u32, u32) {
-    let x = i.reverse_bits();
-    // Second Sobol dimension: direction numbers v_k = v_{k-1} ^ (v_{k-1} >> 1).
-    let mut y = 0u32;
-    let mut v = 1u32 << 31;
-    let mut bits = i;
-    while bits != 0 {
-        if bits & 1 != 0 {
-            y ^= v;
-        }
-        bits >>= 1;
-        v ^= v >> 1;
-    }
-    (x, y)
+    let mut p = i;
+    p ^= (p >> 1) & 0x5555_5555;
+    p ^= (p >> 2) & 0x3333_3333;
+    p ^= (p >> 4) & 0x0f0f_0f0f;
+    p ^= (p >> 8) & 0x00ff_00ff;
+    p ^= (p >> 16) & 0x0000_ffff;
+    (i.reverse_bits(), p.reverse_bits())
 }
 
 /// The random numbers of one camera sample of one pixel.
@@ -187,6 +187,30 @@ mod tests {
         let cov = sxy / nf - sx / nf * sy / nf;
         let corr = cov / ((sxx / nf - (sx / nf).powi(2)) * (syy / nf - (sy / nf).powi(2))).sqrt();
         assert!(corr.abs() < 5.0 / nf.sqrt(), "correlation {corr}");
+    }
+
+    /// The textbook construction: XOR of the direction numbers of the set bits.
+    fn sobol_2d_by_direction_numbers(i: u32) -> u32 {
+        let (mut y, mut v, mut bits) = (0u32, 1u32 << 31, i);
+        while bits != 0 {
+            if bits & 1 != 0 {
+                y ^= v;
+            }
+            bits >>= 1;
+            v ^= v >> 1;
+        }
+        y
+    }
+
+    #[test]
+    fn butterfly_sobol_matches_the_direction_numbers() {
+        let mut x = 0x1234_5678u32;
+        for i in (0..70_000u32).chain((0..70_000).map(|_| {
+            x = hash32(x);
+            x
+        })) {
+            assert_eq!(sobol_2d(i).1, sobol_2d_by_direction_numbers(i), "index {i}");
+        }
     }
 
     #[test]
