@@ -156,7 +156,7 @@ pub(crate) fn build(
         triangle_count,
         params,
     };
-    let root = build_node(&ctx, &mut order, 0, 0);
+    let root = build_node(&ctx, &mut order, 0, 0, None);
     (Some(root), order)
 }
 
@@ -180,25 +180,49 @@ fn scan_bounds(ctx: &Ctx, prims: &[u32]) -> (Bounds, Bounds) {
     }
 }
 
-fn build_node(ctx: &Ctx, prims: &mut [u32], offset: usize, depth: usize) -> BuildNode {
-    let n = prims.len();
-    let (bounds, cbounds) = scan_bounds(ctx, prims);
+/// How a node is split: the size of the left part, and the (primitive,
+/// centroid) bounds of both parts when the partition computed them.
+struct Split {
+    mid: usize,
+    sides: Option<[(Bounds, Bounds); 2]>,
+}
 
-    let mid = match choose_split(ctx, prims, bounds, cbounds, depth) {
-        Some(mid) => mid,
-        None => return make_leaf(ctx, prims, offset, bounds),
+impl From<usize> for Split {
+    fn from(mid: usize) -> Split {
+        Split { mid, sides: None }
+    }
+}
+
+/// `known`: the (primitive, centroid) bounds of `prims`, if the parent's
+/// partition already computed them.
+fn build_node(
+    ctx: &Ctx,
+    prims: &mut [u32],
+    offset: usize,
+    depth: usize,
+    known: Option<(Bounds, Bounds)>,
+) -> BuildNode {
+    let n = prims.len();
+    let (bounds, cbounds) = known.unwrap_or_else(|| scan_bounds(ctx, prims));
+
+    let Some(Split { mid, sides }) = choose_split(ctx, prims, bounds, cbounds, depth) else {
+        return make_leaf(ctx, prims, offset, bounds);
+    };
+    let [ls, rs] = match sides {
+        Some([l, r]) => [Some(l), Some(r)],
+        None => [None, None],
     };
 
     let (left, right) = prims.split_at_mut(mid);
     let (l, r) = if n > PARALLEL_THRESHOLD {
         rayon::join(
-            || build_node(ctx, left, offset, depth + 1),
-            || build_node(ctx, right, offset + mid, depth + 1),
+            || build_node(ctx, left, offset, depth + 1, ls),
+            || build_node(ctx, right, offset + mid, depth + 1, rs),
         )
     } else {
         (
-            build_node(ctx, left, offset, depth + 1),
-            build_node(ctx, right, offset + mid, depth + 1),
+            build_node(ctx, left, offset, depth + 1, ls),
+            build_node(ctx, right, offset + mid, depth + 1, rs),
         )
     };
     BuildNode::Inner {
@@ -240,7 +264,7 @@ fn choose_split(
     bounds: Bounds,
     cbounds: Bounds,
     depth: usize,
-) -> Option<usize> {
+) -> Option<Split> {
     let n = prims.len();
     let p = &ctx.params;
     if n <= 1 {
@@ -251,10 +275,14 @@ fn choose_split(
     // All centroids coincide: no plane separates them. Small sets become a
     // leaf; large ones are halved arbitrarily to respect `max_leaf`.
     if extent[axis] <= 0.0 {
-        return if n <= p.max_leaf { None } else { Some(n / 2) };
+        return if n <= p.max_leaf {
+            None
+        } else {
+            Some((n / 2).into())
+        };
     }
     if depth >= MAX_HEURISTIC_DEPTH {
-        return (n > p.max_leaf).then(|| object_median(ctx, prims, axis));
+        return (n > p.max_leaf).then(|| object_median(ctx, prims, axis).into());
     }
 
     if !p.sah {
@@ -265,9 +293,9 @@ fn choose_split(
         let plane = 0.5 * (cbounds.min[axis] + cbounds.max[axis]);
         let mid = partition(prims, |id| ctx.centroids[id as usize][axis] < plane);
         return if mid == 0 || mid == n {
-            Some(object_median(ctx, prims, axis))
+            Some(object_median(ctx, prims, axis).into())
         } else {
-            Some(mid)
+            Some(mid.into())
         };
     }
 
@@ -340,11 +368,30 @@ fn choose_split(
         return None;
     }
     let (_, a, k) = best;
-    let mid = partition(prims, |id| bin_index(ctx.centroids[id as usize])[a] < k);
-    if mid == 0 || mid == n {
-        Some(object_median(ctx, prims, axis))
+    // Partition, collecting both sides' bounds on the way (saves the
+    // children a pass over their primitives).
+    let (mut i, mut j) = (0, n);
+    let mut sides = [(Bounds::EMPTY, Bounds::EMPTY); 2];
+    while i < j {
+        let id = prims[i] as usize;
+        let side = if bin_index(ctx.centroids[id])[a] < k {
+            i += 1;
+            0
+        } else {
+            j -= 1;
+            prims.swap(i, j);
+            1
+        };
+        sides[side].0 = sides[side].0.union(ctx.bounds[id]);
+        sides[side].1 = sides[side].1.grow(ctx.centroids[id]);
+    }
+    if i == 0 || i == n {
+        Some(object_median(ctx, prims, axis).into())
     } else {
-        Some(mid)
+        Some(Split {
+            mid: i,
+            sides: Some(sides),
+        })
     }
 }
 
