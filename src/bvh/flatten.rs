@@ -16,6 +16,13 @@
 //! 6 bound registers plus [`WIDTH`] `u32`s, and leaves need no table of
 //! their own. Leaf triangles are copied, in tree order, into contiguous
 //! [`TriGroup`]s so that a leaf is one or two straight SIMD tests.
+//!
+//! Nodes are laid out depth first (a node's subtree follows it), which keeps
+//! a traversal's path through nearby memory. Large subtrees are flattened on
+//! other threads into arrays of their own and then appended with their
+//! references shifted; an unused slot is recognised there by its inverted
+//! box, since [`ChildRef::EMPTY`] shares its bits with a one-group leaf at
+//! index 0 (harmless in traversal, where such a slot is never entered).
 
 use glam::Vec3;
 
