@@ -771,3 +771,49 @@ fn instance_node_exponential_expansion() {
     assert_eq!(e.element.as_deref(), Some("node"), "{e}");
     assert!(e.message.contains("node instances"), "{e}");
 }
+
+/// An unusable material record is not fatal: grey diffuse plus a warning,
+/// as the reference does; a negative emission is an error.
+#[test]
+fn unusable_material_records_fall_back_to_grey_with_a_warning() {
+    for record in [
+        "<velvet><sheen>1</sheen></velvet>",
+        "<emission></emission>",
+        "<microfacet><alpha>0.1</alpha></microfacet>",
+    ] {
+        // A red diffuse colour, so a record silently ignored would show.
+        let text = edits(&[
+            (
+                "<color>0.5 0.5 0.5 1</color>",
+                "<color>0.9 0.1 0.1 1</color>",
+            ),
+            (
+                "    </effect>",
+                &format!(
+                    r#"      <extra><technique profile="CGL">{record}</technique></extra>
+    </effect>"#
+                ),
+            ),
+        ]);
+        let scene = load_str(&text, Path::new(NAME)).unwrap_or_else(|e| panic!("{record}: {e}"));
+        let mat = scene
+            .materials
+            .iter()
+            .find(|m| m.name != "default")
+            .unwrap();
+        assert_eq!(mat.material, wavepath::scene::Material::DEFAULT, "{record}");
+        assert!(
+            scene.warnings.iter().any(|w| w.contains("grey diffuse")),
+            "{record}: {:?}",
+            scene.warnings
+        );
+    }
+    let text = edit(
+        "    </effect>",
+        r#"      <extra><technique profile="CGL"><emission><radiance>1 -2 1</radiance></emission></technique></extra>
+    </effect>"#,
+    );
+    let e = load_err(&text);
+    assert_eq!(e.element.as_deref(), Some("radiance"), "{e}");
+    assert!(e.message.contains("negative"), "{e}");
+}

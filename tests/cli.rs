@@ -131,6 +131,8 @@ fn nonsense_values_are_refused_with_a_usage_hint() {
         vec!["-f", "out.jpg", scene],
         vec!["--shading", "wireframe", scene],
         vec!["-e", "sky.exr", scene],
+        vec!["-p", "0", "0", "10", "10", scene],
+        vec!["-r", "65536", "65536", scene],
     ] {
         let o = wavepath(&args);
         let err = stderr(&o);

@@ -364,3 +364,36 @@ fn images_are_bit_identical_across_threads_and_batch_sizes() {
         );
     }
 }
+
+#[test]
+fn sheared_rectangle_light_matches_the_form_factor() {
+    // A node transform that shears the light makes it a parallelogram: its
+    // area is |dim_x × dim_y|, not |dim_x|·|dim_y|.
+    let (w, h) = (W, H);
+    let mut b = Builder::default();
+    floor_scene(&mut b);
+    let light = Light::Area {
+        center: Vec3::new(0.1, 1.0, 0.0),
+        normal: Vec3::NEG_Y,
+        dim_x: Vec3::new(1.0, 0.0, 0.0),
+        dim_y: Vec3::new(0.6, 0.0, 0.8),
+        radiance: Vec3::splat(4.0),
+    };
+    let corners = light.area_corners().unwrap();
+    b.lights.push(light);
+    let scene = b.build(top_down_camera(0.8));
+    let expected = square_light_expected(&scene, &corners, 4.0, w, h);
+    let mut s = settings(w, h, 16, 1);
+    s.integrator.light_samples = 4;
+    let est = channel(&render(&scene, &s, 2), 0);
+    assert_unbiased("sheared rectangle light", &est, &expected, 1e-4);
+    s.integrator.hemisphere = true;
+    s.spp = 64;
+    let hemi = channel(&render(&scene, &s, 2), 0);
+    assert_unbiased(
+        "sheared rectangle light, hemisphere sampling",
+        &hemi,
+        &expected,
+        1e-4,
+    );
+}

@@ -79,6 +79,10 @@ pub struct Args {
     #[arg(short = 'c', long = "camera", value_name = "FILE")]
     pub camera: Option<PathBuf>,
 
+    /// Render only a sub-rectangle (not supported)
+    #[arg(short = 'p', long = "region", num_args = 4, value_names = ["X", "Y", "DX", "DY"])]
+    pub region: Option<Vec<u32>>,
+
     /// Environment map .exr (not supported)
     #[arg(short = 'e', long = "envmap", value_name = "FILE")]
     pub envmap: Option<PathBuf>,

@@ -100,6 +100,15 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
             c.display()
         ));
     }
+    if args.region.is_some() {
+        fail("-p: rendering a sub-rectangle is not supported yet; render the whole image".into());
+    }
+    if args.resolution[0] as u64 * args.resolution[1] as u64 > 1 << 28 {
+        fail(format!(
+            "-r {} {}: more than 2^28 pixels",
+            args.resolution[0], args.resolution[1]
+        ));
+    }
     if let Some(e) = &args.envmap {
         fail(format!(
             "-e {}: environment maps are not supported yet",

@@ -7,7 +7,7 @@ pub mod adaptive;
 pub mod metrics;
 pub mod output;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// A rectangle of pixels, in image coordinates (row 0 at the top).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -46,15 +46,14 @@ pub struct TileFilm {
     pub tile: Tile,
     /// Sum of the radiance samples.
     pub sum: Vec<Vec3>,
-    /// Sum of their squares, per channel (for the variance of the mean).
-    pub sum_sq: Vec<Vec3>,
+    /// Sum of their squares, per channel (for the variance of the mean), in
+    /// f64: `Σx² − n·mean²` cancels badly in f32 on low-noise pixels.
+    pub sum_sq: Vec<DVec3>,
     /// Number of samples taken.
     pub count: Vec<u32>,
     /// Sums of the samples' illuminance and of its square (adaptive sampling).
     pub illum_sum: Vec<f64>,
     pub illum_sq_sum: Vec<f64>,
-    /// Extra per-pixel value some views report (e.g. BVH traversal cost).
-    pub aux: Vec<f32>,
 }
 
 impl TileFilm {
@@ -63,11 +62,10 @@ impl TileFilm {
         TileFilm {
             tile,
             sum: vec![Vec3::ZERO; n],
-            sum_sq: vec![Vec3::ZERO; n],
+            sum_sq: vec![DVec3::ZERO; n],
             count: vec![0; n],
             illum_sum: vec![0.0; n],
             illum_sq_sum: vec![0.0; n],
-            aux: vec![0.0; n],
         }
     }
 
@@ -76,7 +74,8 @@ impl TileFilm {
     pub fn add(&mut self, i: usize, radiance: Vec3) {
         let x = illuminance(radiance) as f64;
         self.sum[i] += radiance;
-        self.sum_sq[i] += radiance * radiance;
+        let r = radiance.as_dvec3();
+        self.sum_sq[i] += r * r;
         self.count[i] += 1;
         self.illum_sum[i] += x;
         self.illum_sq_sum[i] += x * x;
@@ -100,19 +99,17 @@ pub struct Image {
     /// s² the unbiased sample variance (0 with fewer than two samples).
     pub variance: Vec<Vec3>,
     pub samples: Vec<u32>,
-    pub aux: Vec<f32>,
 }
 
 impl Image {
     pub fn new(width: u32, height: u32) -> Self {
-        let n = (width * height) as usize;
+        let n = width as usize * height as usize;
         Image {
             width,
             height,
             pixels: vec![Vec3::ZERO; n],
             variance: vec![Vec3::ZERO; n],
             samples: vec![0; n],
-            aux: vec![0.0; n],
         }
     }
 
@@ -131,13 +128,14 @@ impl Image {
                 };
                 self.pixels[global] = mean;
                 self.variance[global] = if n > 1 {
-                    let nf = n as f32;
-                    ((film.sum_sq[local] - nf * mean * mean) / (nf - 1.0)).max(Vec3::ZERO) / nf
+                    let nf = n as f64;
+                    let m = mean.as_dvec3();
+                    (((film.sum_sq[local] - nf * m * m) / (nf - 1.0)).max(DVec3::ZERO) / nf)
+                        .as_vec3()
                 } else {
                     Vec3::ZERO
                 };
                 self.samples[global] = n;
-                self.aux[global] = film.aux[local];
             }
         }
     }

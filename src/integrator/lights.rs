@@ -72,6 +72,12 @@ impl LightSource {
         )
     }
 
+    /// Whether [`sample`](Self::sample) uses its third random number `w`
+    /// (to pick a triangle); delta lights use none of them.
+    pub fn uses_w(&self) -> bool {
+        matches!(self, LightSource::Mesh { .. })
+    }
+
     /// Draws a connection from surface point `p` (normal `n`) with random
     /// numbers `(u, v)` and, for meshes, `w` to pick a triangle. The weight
     /// and cosine are measured from `p`; the shadow ray starts at `origin`,
@@ -314,13 +320,13 @@ impl LightSet {
                 }
                 Light::Area {
                     center,
-                    normal,
                     dim_x,
                     dim_y,
                     radiance,
+                    ..
                 } => LightSource::Rectangle {
                     center,
-                    normal,
+                    normal: light.emitting_normal().unwrap_or(Vec3::NEG_Y),
                     dim_x,
                     dim_y,
                     radiance,

@@ -3,7 +3,7 @@
 //! The wavefront stages (see [`crate::wavefront`]) own the data movement;
 //! this module owns the estimators they evaluate:
 //! [`settings`] says which estimator runs, [`lights`] samples light sources
-//! for next-event estimation, [`bsdf`] evaluates and samples surfaces.
+//! for next-event estimation, [`bsdf`] says how surfaces reflect and emit (the shade stage samples them).
 
 pub mod bsdf;
 pub mod lights;

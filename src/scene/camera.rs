@@ -89,16 +89,17 @@ impl Camera {
         let screen_x = screen_x.normalize();
         let screen_y = back.cross(screen_x).normalize();
 
-        // Fit to the 800×600 screen: widen whichever field of view is too narrow.
+        // Fit to the 800×600 screen: widen whichever field of view is too
+        // narrow. Widening the horizontal one leaves the vertical as it is;
+        // otherwise the vertical follows the horizontal.
         let (h, v) = optics.fov_degrees();
-        let (mut tan_h, mut tan_v) = ((0.5 * h.to_radians()).tan(), (0.5 * v.to_radians()).tan());
+        let (tan_h, tan_v) = ((0.5 * h.to_radians()).tan(), (0.5 * v.to_radians()).tan());
         let aspect = FIT_WIDTH / FIT_HEIGHT;
-        if tan_h / tan_v < aspect {
-            tan_h = tan_v * aspect;
+        let tan_v = if tan_h / tan_v < aspect {
+            tan_v
         } else {
-            tan_v = tan_h / aspect;
-        }
-        let _ = tan_h;
+            tan_h / aspect
+        };
         let screen_distance = FIT_HEIGHT / (2.0 * tan_v);
 
         Camera {

@@ -31,11 +31,30 @@ impl Light {
         }
     }
 
-    /// Area of an area light (0 for the others).
+    /// Area of an area light (0 for the others): the parallelogram
+    /// |dim_x × dim_y|, which is |dim_x|·|dim_y| unless the node's transform
+    /// shears the rectangle.
     pub fn area(&self) -> f32 {
         match self {
-            Light::Area { dim_x, dim_y, .. } => dim_x.length() * dim_y.length(),
+            Light::Area { dim_x, dim_y, .. } => dim_x.cross(*dim_y).length(),
             _ => 0.0,
+        }
+    }
+
+    /// Unit normal of the emitting plane of an area light, on the side the
+    /// light's `normal` points to (the two differ only under a shear).
+    pub fn emitting_normal(&self) -> Option<Vec3> {
+        match self {
+            Light::Area {
+                normal,
+                dim_x,
+                dim_y,
+                ..
+            } => {
+                let n = dim_x.cross(*dim_y).normalize_or(*normal);
+                Some(if n.dot(*normal) < 0.0 { -n } else { n })
+            }
+            _ => None,
         }
     }
 

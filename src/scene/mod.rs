@@ -39,15 +39,12 @@ impl Scene {
         warnings: Vec<String>,
     ) -> Scene {
         for light in &lights {
-            let (
-                Some(corners),
-                Light::Area {
-                    normal, radiance, ..
-                },
-            ) = (light.area_corners(), light)
+            let (Some(corners), Some(normal), Light::Area { radiance, .. }) =
+                (light.area_corners(), light.emitting_normal(), light)
             else {
                 continue;
             };
+            let normal = &normal;
             let index = materials.len() as u32;
             materials.push(NamedMaterial {
                 name: format!("area light {index}"),

@@ -225,8 +225,17 @@ fn direct_lights(
         };
         let inv_count = 1.0 / count as f32;
         for _ in 0..count {
-            let (u, v) = paths.stream[i].next_2d();
-            let w = paths.stream[i].next_1d();
+            // Draw only the random numbers this light uses.
+            let (u, v) = if light.is_delta() {
+                (0.5, 0.5)
+            } else {
+                paths.stream[i].next_2d()
+            };
+            let w = if light.uses_w() {
+                paths.stream[i].next_1d()
+            } else {
+                0.0
+            };
             let Some(s) = light.sample(p, p_out, n, u, v, w) else {
                 continue;
             };

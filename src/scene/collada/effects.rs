@@ -61,11 +61,42 @@ fn parse_effect(
 ) -> Result<Material, LoadError> {
     if let Some(record) = renderer_technique(effect).and_then(first_element) {
         let one = Vec3::ONE;
+        // A record we cannot use is not an error: the material becomes grey
+        // diffuse with a warning, as the reference does. Malformed numbers
+        // inside a usable record still are.
+        let unusable = |why: String, warnings: &mut Vec<String>| {
+            warnings.push(src.warning(record, format!("{why}; using grey diffuse")));
+            Ok(Material::DEFAULT)
+        };
+        let required = ["radiance", "eta", "k"]
+            .into_iter()
+            .filter(|name| match record.tag_name().name() {
+                "emission" => *name == "radiance",
+                "microfacet" => *name != "radiance",
+                _ => false,
+            })
+            .find(|name| child(record, name).is_none());
+        if let Some(name) = required {
+            return unusable(
+                format!("<{}> has no <{name}>", record.tag_name().name()),
+                warnings,
+            );
+        }
         let material = match record.tag_name().name() {
-            "emission" => Material::Emission {
-                radiance: src.vec3(src.require(record, "radiance")?)?,
-                one_sided: false,
-            },
+            "emission" => {
+                let node = src.require(record, "radiance")?;
+                let radiance = src.vec3(node)?;
+                if radiance.min_element() < 0.0 {
+                    return Err(src.error(
+                        node,
+                        format!("emitted radiance {radiance} has a negative component"),
+                    ));
+                }
+                Material::Emission {
+                    radiance,
+                    one_sided: false,
+                }
+            }
             "mirror" => Material::Mirror {
                 reflectance: color_or(src, record, "reflectance", one)?,
             },
@@ -86,10 +117,12 @@ fn parse_effect(
                 k: src.vec3(src.require(record, "k")?)?,
             },
             other => {
-                return Err(src.error(
-                    record,
-                    format!("unknown material record <{other}> (expected emission, mirror, glass, refraction or microfacet)"),
-                ));
+                return unusable(
+                    format!(
+                        "unknown material record <{other}> (expected emission, mirror, glass, refraction or microfacet)"
+                    ),
+                    warnings,
+                );
             }
         };
         if let Material::Glass { ior, .. } | Material::Refraction { ior, .. } = material
