@@ -46,21 +46,24 @@ pub fn to_unit_float(bits: u32) -> f32 {
     (bits >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
-/// Laine–Karras style nested uniform scramble of a bit-reversed value
-/// (Burley, "Practical Hash-based Owen Scrambling", 2020).
+/// The Laine–Karras permutation: each output bit depends only on the same
+/// and lower input bits, so applied to a bit-reversed value it is a nested
+/// uniform (Owen) scramble (Burley, "Practical Hash-based Owen
+/// Scrambling", 2020).
 #[inline]
-fn nested_uniform_scramble(mut x: u32, seed: u32) -> u32 {
-    x = x.reverse_bits();
+fn laine_karras(mut x: u32, seed: u32) -> u32 {
     x = x.wrapping_add(seed);
     x ^= x.wrapping_mul(0x6c50_b47c);
     x ^= x.wrapping_mul(0xb82f_1e52);
     x ^= x.wrapping_mul(0xc7af_e638);
     x ^= x.wrapping_mul(0x8d22_f6e6);
-    x.reverse_bits()
+    x
 }
 
-/// The first two Sobol dimensions of point `i`: van der Corput and its
-/// (0,2)-partner, as 32-bit fixed-point values.
+/// The first two Sobol dimensions of point `i`, *bit-reversed*: the van der
+/// Corput value reversed is `i` itself, and its (0,2)-partner reversed is
+/// computed below. Callers Owen-scramble in this reversed domain (where the
+/// Laine–Karras permutation works) and reverse once at the end.
 ///
 /// The second dimension's direction numbers are v_k = v_{k−1} ⊕ (v_{k−1} ≫ 1):
 /// read as polynomials over GF(2) they are (1 + z)^k, so the point is
@@ -68,14 +71,14 @@ fn nested_uniform_scramble(mut x: u32, seed: u32) -> u32 {
 /// that substitution is five shift-xor butterflies instead of a loop over
 /// the bits of `i` (which are all set after index scrambling).
 #[inline]
-fn sobol_2d(i: u32) -> (u32, u32) {
+fn sobol_2d_reversed(i: u32) -> (u32, u32) {
     let mut p = i;
     p ^= (p >> 1) & 0x5555_5555;
     p ^= (p >> 2) & 0x3333_3333;
     p ^= (p >> 4) & 0x0f0f_0f0f;
     p ^= (p >> 8) & 0x00ff_00ff;
     p ^= (p >> 16) & 0x0000_ffff;
-    (i.reverse_bits(), p.reverse_bits())
+    (i, p)
 }
 
 /// The random numbers of one camera sample of one pixel.
@@ -83,7 +86,8 @@ fn sobol_2d(i: u32) -> (u32, u32) {
 pub struct SampleStream {
     /// Hash of (seed, pixel): selects the pixel's scrambles.
     key: u32,
-    sample: u32,
+    /// The sample index, bit-reversed (the index shuffle works on that).
+    sample_reversed: u32,
     /// Hash of (key, sample): the base of this sample's independent dimensions.
     base: u32,
     dimension: u32,
@@ -96,7 +100,7 @@ impl SampleStream {
         let key = hash_words(&[seed, pixel]);
         SampleStream {
             key,
-            sample,
+            sample_reversed: sample.reverse_bits(),
             base: hash_words(&[key, sample]),
             dimension: 0,
             pair: 1,
@@ -108,10 +112,12 @@ impl SampleStream {
     /// coordinate Owen-scrambled (so neighbouring pixels do not either).
     fn sobol_pair(&self, pair: u32) -> (f32, f32) {
         let seed = hash_words(&[self.key, pair]);
-        let index = nested_uniform_scramble(self.sample, seed);
-        let (x, y) = sobol_2d(index);
-        let x = nested_uniform_scramble(x, hash32(seed ^ 0x1b87_3593));
-        let y = nested_uniform_scramble(y, hash32(seed ^ 0xcc9e_2d51));
+        // Shuffle: an Owen scramble of the index (reverse, permute, reverse).
+        let index = laine_karras(self.sample_reversed, seed).reverse_bits();
+        // Scramble each coordinate in the reversed domain, reverse once.
+        let (x, y) = sobol_2d_reversed(index);
+        let x = laine_karras(x, hash32(seed ^ 0x1b87_3593)).reverse_bits();
+        let y = laine_karras(y, hash32(seed ^ 0xcc9e_2d51)).reverse_bits();
         (to_unit_float(x), to_unit_float(y))
     }
 
@@ -209,7 +215,11 @@ mod tests {
             x = hash32(x);
             x
         })) {
-            assert_eq!(sobol_2d(i).1, sobol_2d_by_direction_numbers(i), "index {i}");
+            assert_eq!(
+                sobol_2d_reversed(i).1.reverse_bits(),
+                sobol_2d_by_direction_numbers(i),
+                "index {i}"
+            );
         }
     }
 
