@@ -236,3 +236,34 @@ fn a_scene_named_like_a_tool_renders_when_given_as_a_path() {
     assert!(o.status.success(), "{}", text(&o.stderr));
     assert!(dir.join("out.png").is_file());
 }
+
+/// `compare` decodes PNGs with the curve they were written with: our PNG
+/// of a render against the EXR of the same render differs only by 8-bit
+/// quantisation (and clipping of the light), unless decoded as sRGB.
+#[test]
+fn compare_decodes_our_pngs_with_the_reference_curve() {
+    let dir = scratch("compare_tonemap");
+    let (png, exr) = (dir.join("a.png"), dir.join("a.exr"));
+    render(&png, 160, 120, 2, 3);
+    render(&exr, 160, 120, 2, 3);
+    let mape = |extra: &[&str]| -> f64 {
+        let mut args = vec!["compare"];
+        args.extend_from_slice(extra);
+        args.extend([png.to_str().unwrap(), exr.to_str().unwrap()]);
+        let o = wavepath(&args);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let out = text(&o.stdout);
+        let all = out
+            .lines()
+            .find(|l| l.starts_with("all"))
+            .expect("an 'all' row");
+        all.split_whitespace().nth(3).unwrap().parse().unwrap()
+    };
+    let reference = mape(&[]);
+    let srgb = mape(&["--tonemap", "srgb"]);
+    assert!(
+        reference < 3.0,
+        "MAPE {reference}% decoding with the reference curve"
+    );
+    assert!(srgb > 10.0, "MAPE {srgb}% should show the wrong curve");
+}

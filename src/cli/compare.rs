@@ -15,7 +15,7 @@ use glam::Vec3;
 
 use crate::film::Image;
 use crate::film::metrics::{self, REL_EPSILON};
-use crate::film::output::{self, Format};
+use crate::film::output::{self, Format, ToneCurve};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -24,7 +24,7 @@ use crate::film::output::{self, Format};
     about = "Error metrics of an image against a reference (EXR or PNG)",
     after_help = "relMSE = mean (x - ref)^2 / (ref^2 + 0.01) over pixels and channels; \
                   MAPE = mean |x - ref| / (|ref| + 0.01), in percent.\n\
-                  PNGs are decoded as sRGB to linear values.\n\
+                  PNGs are decoded to linear values with the inverse of --tonemap.\n\
                   Example: wavepath compare render.exr reference.exr --diff err.png"
 )]
 pub struct CompareArgs {
@@ -38,10 +38,14 @@ pub struct CompareArgs {
     /// Relative error shown as full red in --diff [default: the 99th percentile]
     #[arg(long = "diff-scale", value_name = "E")]
     pub diff_scale: Option<f32>,
+    /// Curve PNG inputs were encoded with (wavepath writes `reference` unless told otherwise)
+    #[arg(long = "tonemap", value_enum, default_value_t = ToneCurve::Reference)]
+    pub tonemap: ToneCurve,
 }
 
-/// Reads an input image with an error that names the file.
-pub fn load(path: &Path) -> Result<Image> {
+/// Reads an input image with an error that names the file; PNGs are
+/// decoded with the inverse of `curve`.
+pub fn load(path: &Path, curve: ToneCurve) -> Result<Image> {
     if !path.exists() {
         bail!("{}: no such file", path.display());
     }
@@ -51,7 +55,7 @@ pub fn load(path: &Path) -> Result<Image> {
             path.display()
         )
     })?;
-    output::read_image(path)
+    output::read_image_with(path, curve)
 }
 
 /// Colour ramp for an error in [0, 1]: black → blue → green → yellow → red.
@@ -118,8 +122,8 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
     {
         bail!("{}: --diff writes a PNG; name a .png file", d.display());
     }
-    let image = load(&args.image)?;
-    let reference = load(&args.reference)?;
+    let image = load(&args.image, args.tonemap)?;
+    let reference = load(&args.reference, args.tonemap)?;
     if (image.width, image.height) != (reference.width, reference.height) {
         bail!(
             "{} is {}x{} but the reference {} is {}x{}: sizes must match",

@@ -293,7 +293,8 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         return Ok(0);
     }
 
-    let reference = super::compare::load(&reference_path)?;
+    let reference =
+        super::compare::load(&reference_path, crate::film::output::ToneCurve::Reference)?;
     if (reference.width, reference.height) != (settings.width, settings.height) {
         bail!(
             "{} is {}x{} but the renders are {}x{} (give -r {} {})",

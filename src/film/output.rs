@@ -19,6 +19,24 @@ pub enum ToneCurve {
 
 impl ToneCurve {
     #[inline]
+    /// Inverse of [`encode`](Self::encode): the linear value at the middle
+    /// of the code's interval (the reference curve truncates, sRGB rounds).
+    pub fn decode(self, v: u8) -> f32 {
+        match self {
+            ToneCurve::Reference => {
+                ((v as f32 + 0.5) / 255.0).min(1.0).powf(2.2) / std::f32::consts::SQRT_2
+            }
+            ToneCurve::Srgb => {
+                let v = v as f32 / 255.0;
+                if v <= 0.04045 {
+                    v / 12.92
+                } else {
+                    ((v + 0.055) / 1.055).powf(2.4)
+                }
+            }
+        }
+    }
+
     pub fn encode(self, l: f32) -> u8 {
         if !l.is_finite() {
             return 0;
@@ -190,6 +208,11 @@ pub fn write_rate_png(image: &Image, path: &Path) -> Result<()> {
 /// linear RGB; PNGs are decoded as sRGB. From an EXR, the optional
 /// `samples` and [`STDERR_CHANNELS`] channels fill `samples` and `variance`.
 pub fn read_image(path: &Path) -> Result<Image> {
+    read_image_with(path, ToneCurve::Srgb)
+}
+
+/// [`read_image`], decoding PNGs with the inverse of `curve`.
+pub fn read_image_with(path: &Path, curve: ToneCurve) -> Result<Image> {
     match Format::from_path(path)? {
         Format::Exr => read_exr(path),
         Format::Png => {
@@ -198,16 +221,8 @@ pub fn read_image(path: &Path) -> Result<Image> {
                 .to_rgb8();
             let mut image = Image::new(rgb.width(), rgb.height());
             // Inverse of the sRGB curve, the common encoding of PNGs.
-            let decode = |v: u8| {
-                let v = v as f32 / 255.0;
-                if v <= 0.04045 {
-                    v / 12.92
-                } else {
-                    ((v + 0.055) / 1.055).powf(2.4)
-                }
-            };
             for (dst, p) in image.pixels.iter_mut().zip(rgb.pixels()) {
-                *dst = Vec3::new(decode(p[0]), decode(p[1]), decode(p[2]));
+                *dst = Vec3::new(curve.decode(p[0]), curve.decode(p[1]), curve.decode(p[2]));
             }
             Ok(image)
         }
@@ -265,4 +280,18 @@ fn read_exr(path: &Path) -> Result<Image> {
         }
     }
     Ok(image)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ToneCurve;
+
+    #[test]
+    fn decode_inverts_encode() {
+        for curve in [ToneCurve::Reference, ToneCurve::Srgb] {
+            for v in 0..=255u8 {
+                assert_eq!(curve.encode(curve.decode(v)), v, "{curve:?} code {v}");
+            }
+        }
+    }
 }
