@@ -15,8 +15,6 @@
 use std::ffi::OsString;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
@@ -29,7 +27,6 @@ use crate::bvh::Bvh;
 use crate::film::metrics;
 use crate::film::output::{self, Format};
 use crate::integrator::Settings;
-use crate::scene::collada;
 use crate::wavefront::{RenderSettings, Renderer};
 
 /// References are rendered with `--seed` plus this, so that a reference
@@ -219,18 +216,8 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     settings.adaptive = None;
     let chatty = !args.render.quiet;
 
-    let threads = args.render.threads.map_or_else(
-        || std::thread::available_parallelism().map_or(1, |n| n.get()),
-        |t| t as usize,
-    );
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .context("cannot start worker threads")?;
-    let scene = match &args.render.scene {
-        Some(path) => collada::load_file(path)?,
-        None => collada::load_str(super::DEFAULT_SCENE, Path::new(super::DEFAULT_SCENE_NAME))?,
-    };
+    let (pool, threads) = super::thread_pool(&args.render)?;
+    let scene = super::load_scene(&args.render)?;
     let scene_name = super::scene_path(&args.render).display().to_string();
     for w in &scene.warnings {
         eprintln!("warning: {w}");
@@ -241,11 +228,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         eprintln!("warning: {w}");
     }
 
-    let cancel = Arc::new(AtomicBool::new(false));
-    {
-        let cancel = Arc::clone(&cancel);
-        let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::Relaxed));
-    }
+    let cancel = super::cancel_on_ctrl_c();
     let render = |s: &RenderSettings| {
         let cpu = process_cpu_seconds();
         let t = Instant::now();

@@ -148,6 +148,36 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
     (settings, output)
 }
 
+/// A rayon pool of `-t` threads (all cores by default), and its size.
+fn thread_pool(args: &Args) -> Result<(rayon::ThreadPool, usize)> {
+    let threads = args.threads.map_or_else(
+        || std::thread::available_parallelism().map_or(1, |n| n.get()),
+        |t| t as usize,
+    );
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("cannot start worker threads")?;
+    Ok((pool, threads))
+}
+
+/// The named scene, or the built-in one.
+fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
+    Ok(match &args.scene {
+        Some(path) => collada::load_file(path)?,
+        None => collada::load_str(DEFAULT_SCENE, std::path::Path::new(DEFAULT_SCENE_NAME))?,
+    })
+}
+
+/// A flag that Ctrl-C sets. Failing to install the handler only loses the
+/// partial output on Ctrl-C, so it is not an error.
+fn cancel_on_ctrl_c() -> Arc<AtomicBool> {
+    let cancel = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&cancel);
+    let _ = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed));
+    cancel
+}
+
 /// Runs the command; returns the process exit status.
 pub fn run() -> Result<i32> {
     let mut argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
@@ -160,20 +190,10 @@ pub fn run() -> Result<i32> {
     let (settings, output_path) = validate(&args);
     let chatty = !args.quiet;
 
-    let threads = args.threads.map_or_else(
-        || std::thread::available_parallelism().map_or(1, |n| n.get()),
-        |t| t as usize,
-    );
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .context("cannot start worker threads")?;
+    let (pool, threads) = thread_pool(&args)?;
 
     let t = Instant::now();
-    let scene = match &args.scene {
-        Some(path) => collada::load_file(path)?,
-        None => collada::load_str(DEFAULT_SCENE, std::path::Path::new(DEFAULT_SCENE_NAME))?,
-    };
+    let scene = load_scene(&args)?;
     let scene_name = scene_path(&args);
     let load_time = t.elapsed();
     for w in &scene.warnings {
@@ -198,12 +218,7 @@ pub fn run() -> Result<i32> {
     }
 
     // Ctrl-C stops the render between passes; what is done is still written.
-    let cancel = Arc::new(AtomicBool::new(false));
-    {
-        let cancel = Arc::clone(&cancel);
-        // Failing to install the handler only loses partial output on Ctrl-C.
-        let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::Relaxed));
-    }
+    let cancel = cancel_on_ctrl_c();
 
     let total_pixels = settings.width as u64 * settings.height as u64;
     let bar = if chatty && std::io::stderr().is_terminal() {
