@@ -203,7 +203,7 @@ impl Bvh {
         let (root, order) = build::build(&bounds, tri_count as u32, params);
         let flat = flatten::flatten(root.as_ref(), &order, geometry);
         assert!(
-            flat.depth * (WIDTH - 1) < traverse::STACK_SIZE,
+            flat.depth * (WIDTH - 1) + WIDTH <= traverse::STACK_SIZE,
             "BVH too deep for the traversal stack"
         );
         bvh.nodes = flat.nodes;

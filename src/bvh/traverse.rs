@@ -68,8 +68,9 @@ fn cull_slack(extent: f32, o: Vec3, inv: [f32; 3]) -> f32 {
 }
 
 /// Stack capacity: the builder bounds the binary depth to well under 96,
-/// and a wide level pushes at most `WIDTH − 1` entries.
-pub(crate) const STACK_SIZE: usize = 96 * (WIDTH - 1) + 1;
+/// a wide level pushes at most `WIDTH − 1` entries, and every push writes
+/// `WIDTH` (see [`push_children`]).
+pub(crate) const STACK_SIZE: usize = 96 * (WIDTH - 1) + WIDTH + 1;
 
 /// What traversal reads: the flattened tree and its leaf arrays.
 pub(crate) struct Scene<'a> {
@@ -293,8 +294,12 @@ fn push_children(
         hits[j] = e;
         n += 1;
     }
-    // hits is sorted far..near; push all but the last (nearest).
-    stack[*sp..*sp + n - 1].copy_from_slice(&hits[..n - 1]);
+    // hits is sorted far..near; push all but the last (nearest). All
+    // WIDTH entries are copied (the stack has room to spare) so the copy
+    // has a constant size: one vector move instead of a call to memcpy,
+    // which would also force the ray's registers to be saved around it.
+    let top: &mut [Entry; WIDTH] = (&mut stack[*sp..*sp + WIDTH]).try_into().unwrap();
+    *top = hits;
     *sp += n - 1;
     ChildRef(hits[n - 1].child)
 }

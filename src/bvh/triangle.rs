@@ -63,10 +63,15 @@ impl TriGroup {
         }
     }
 
-    /// Number of real (non-padding) triangles.
+    /// Number of real (non-padding) triangles. Padding lanes come last, so
+    /// a full group (the common case) is known from its last lane.
     #[inline]
     pub fn len(&self) -> u32 {
-        self.id.iter().filter(|&&id| id != NO_HIT).count() as u32
+        if self.id[TRI_WIDTH - 1] != NO_HIT {
+            TRI_WIDTH as u32
+        } else {
+            self.id.iter().take_while(|&&id| id != NO_HIT).count() as u32
+        }
     }
 }
 
@@ -167,9 +172,21 @@ pub(crate) fn intersect_group(g: &TriGroup, r: &RayTri, t_far: f32) -> GroupHit 
     let neg = u.simd_lt(zero) | v.simd_lt(zero) | w.simd_lt(zero);
     let pos = u.simd_gt(zero) | v.simd_gt(zero) | w.simd_gt(zero);
     let det = u + v + w;
+    let inside = !(neg & pos) & det.simd_ne(zero);
+    // Most groups a ray reaches have no triangle it passes through: skip
+    // the distance (and its division) for those.
+    if inside.to_bitmask() == 0 {
+        return GroupHit {
+            mask: 0,
+            t: zero,
+            v,
+            w,
+            det,
+        };
+    }
     let t_num = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
     let t = t_num / det;
-    let ok = !(neg & pos) & det.simd_ne(zero) & t.simd_ge(zero) & t.simd_le(TriLanes::splat(t_far));
+    let ok = inside & t.simd_ge(zero) & t.simd_le(TriLanes::splat(t_far));
     GroupHit {
         mask: ok.to_bitmask(),
         t,

@@ -109,7 +109,9 @@ impl Triangles {
         let n = (1.0 - u - v) * self.normals[a as usize]
             + u * self.normals[b as usize]
             + v * self.normals[c as usize];
-        n.normalize_or(self.geometric_normal(tri).normalize_or(Vec3::Y))
+        // The fallback is computed only when needed (degenerate normals).
+        n.try_normalize()
+            .unwrap_or_else(|| self.geometric_normal(tri).normalize_or(Vec3::Y))
     }
 }
 
