@@ -86,6 +86,20 @@ pub struct Renderer<'a> {
     pub warnings: Vec<String>,
 }
 
+/// Buffers a worker reuses from tile to tile, so a tile allocates nothing
+/// once the first few have grown them.
+#[derive(Default)]
+struct Scratch {
+    paths: Paths,
+    hits: Hits,
+    shadow: ShadowRays,
+    probes: ShadowRays,
+    probe_hits: Hits,
+    occluded: Vec<bool>,
+    cost: Vec<u32>,
+    slots: Vec<Vec3>,
+}
+
 /// A finished (or interrupted) render.
 pub struct RenderOutput {
     pub image: Image,
@@ -119,8 +133,8 @@ impl<'a> Renderer<'a> {
         let tiles = Tile::grid(settings.width, settings.height, settings.tile_size);
         let results: Vec<(TileFilm, Stats, bool)> = tiles
             .par_iter()
-            .map(|&tile| {
-                let out = self.render_tile(settings, tile, cancel);
+            .map_init(Scratch::default, |scratch, &tile| {
+                let out = self.render_tile(settings, tile, cancel, scratch);
                 on_tile(tile.pixel_count() as u64);
                 out
             })
@@ -158,6 +172,7 @@ impl<'a> Renderer<'a> {
         settings: &RenderSettings,
         tile: Tile,
         cancel: &AtomicBool,
+        scratch: &mut Scratch,
     ) -> (TileFilm, Stats, bool) {
         let mut film = TileFilm::new(tile);
         let mut stats = Stats::default();
@@ -178,14 +193,18 @@ impl<'a> Renderer<'a> {
             settings: integrator,
         };
         let capacity = settings.batch_size.max(1);
-        let mut paths = Paths::with_capacity(capacity);
-        let mut hits = Hits::default();
-        let mut shadow = ShadowRays::default();
-        let mut probes = ShadowRays::default();
-        let mut probe_hits = Hits::default();
-        let mut occluded = Vec::new();
-        let mut cost = vec![0u32; capacity];
-        let mut slots: Vec<Vec3> = Vec::new();
+        let Scratch {
+            paths,
+            hits,
+            shadow,
+            probes,
+            probe_hits,
+            occluded,
+            cost,
+            slots,
+        } = scratch;
+        paths.truncate(0);
+        cost.resize(capacity, 0);
         let mut active: Vec<u32> = (0..tile.pixel_count() as u32).collect();
         let pass_size = settings
             .adaptive
@@ -210,7 +229,7 @@ impl<'a> Renderer<'a> {
             };
             loop {
                 let t = Instant::now();
-                let generated = generate::refill(&mut paths, capacity, &mut queue, &cam);
+                let generated = generate::refill(paths, capacity, &mut queue, &cam);
                 stats.generate.record(generated, t);
                 if paths.is_empty() {
                     break;
@@ -219,10 +238,10 @@ impl<'a> Renderer<'a> {
                 let t = Instant::now();
                 let cost_out = want_cost.then(|| &mut cost[..paths.len()]);
                 self.bvh
-                    .intersect(&paths.rays, &mut hits, &mut stats.traversal, cost_out);
+                    .intersect(&paths.rays, hits, &mut stats.traversal, cost_out);
                 stats.intersect.record(paths.len(), t);
                 if want_cost {
-                    for (r, &c) in paths.radiance.iter_mut().zip(&cost) {
+                    for (r, &c) in paths.radiance.iter_mut().zip(cost.iter()) {
                         *r = Vec3::splat(c as f32);
                     }
                 }
@@ -230,7 +249,7 @@ impl<'a> Renderer<'a> {
                 let t = Instant::now();
                 shadow.clear();
                 probes.clear();
-                shade::shade(&inputs, &hits, &mut paths, &mut shadow, &mut probes);
+                shade::shade(&inputs, &hits, paths, shadow, probes);
                 stats.shade.record(paths.len(), t);
 
                 if !shadow.is_empty() {
@@ -238,8 +257,8 @@ impl<'a> Renderer<'a> {
                     shadow::resolve_shadow_rays(
                         self.bvh,
                         &shadow,
-                        &mut occluded,
-                        &mut paths,
+                        occluded,
+                        paths,
                         &mut stats.traversal,
                     );
                     stats.shadow.record(shadow.len(), t);
@@ -249,11 +268,11 @@ impl<'a> Renderer<'a> {
                     shadow::resolve_probe_rays(
                         self.bvh,
                         &probes,
-                        &mut probe_hits,
+                        probe_hits,
                         &self.scene.geometry,
                         &self.surfaces,
                         self.lights.sky,
-                        &mut paths,
+                        paths,
                         &mut stats.traversal,
                     );
                     stats.probe.record(probes.len(), t);
@@ -261,7 +280,7 @@ impl<'a> Renderer<'a> {
 
                 let t = Instant::now();
                 let before = paths.len();
-                compact::compact(&mut paths, &mut slots);
+                compact::compact(paths, slots);
                 stats.compact.record(before, t);
             }
 
