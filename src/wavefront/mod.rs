@@ -249,14 +249,14 @@ impl<'a> Renderer<'a> {
                 let t = Instant::now();
                 shadow.clear();
                 probes.clear();
-                shade::shade(&inputs, &hits, paths, shadow, probes);
+                shade::shade(&inputs, hits, paths, shadow, probes);
                 stats.shade.record(paths.len(), t);
 
                 if !shadow.is_empty() {
                     let t = Instant::now();
                     shadow::resolve_shadow_rays(
                         self.bvh,
-                        &shadow,
+                        shadow,
                         occluded,
                         paths,
                         &mut stats.traversal,
@@ -267,7 +267,7 @@ impl<'a> Renderer<'a> {
                     let t = Instant::now();
                     shadow::resolve_probe_rays(
                         self.bvh,
-                        &probes,
+                        probes,
                         probe_hits,
                         &self.scene.geometry,
                         &self.surfaces,
