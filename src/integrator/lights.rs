@@ -82,6 +82,11 @@ impl LightSource {
     /// numbers `(u, v)` and, for meshes, `w` to pick a triangle. The weight
     /// and cosine are measured from `p`; the shadow ray starts at `origin`,
     /// `p` moved off its surface. `None` when the light cannot reach `p`.
+    ///
+    /// Inlined into the shading loop: called out of line, its vector
+    /// arguments went through memory and the loads stalled on the caller's
+    /// narrower stores (store-to-load forwarding failed).
+    #[inline(always)]
     pub fn sample(
         &self,
         p: Vec3,
@@ -265,6 +270,7 @@ fn sample_sphere(
 /// division serve both cosines and the pdf. The shadow ray runs from
 /// `origin` to just in front of `q`, which lies within `q_err` of the
 /// emitter's triangles, all of whose vertices are within `extent` of `q`.
+#[inline(always)]
 fn connect(
     p: Vec3,
     origin: Vec3,
