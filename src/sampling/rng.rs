@@ -86,8 +86,8 @@ fn sobol_2d_reversed(i: u32) -> (u32, u32) {
 pub struct SampleStream {
     /// Hash of (seed, pixel): selects the pixel's scrambles.
     key: u32,
-    /// The sample index, bit-reversed (the index shuffle works on that).
-    sample_reversed: u32,
+    /// The sample index within the pixel.
+    sample: u32,
     /// Hash of (key, sample): the base of this sample's independent dimensions.
     base: u32,
     dimension: u32,
@@ -100,7 +100,7 @@ impl SampleStream {
         let key = hash_words(&[seed, pixel]);
         SampleStream {
             key,
-            sample_reversed: sample.reverse_bits(),
+            sample,
             base: hash_words(&[key, sample]),
             dimension: 0,
             pair: 1,
@@ -111,14 +111,7 @@ impl SampleStream {
     /// samples in a shuffled order (so pairs do not correlate), each
     /// coordinate Owen-scrambled (so neighbouring pixels do not either).
     fn sobol_pair(&self, pair: u32) -> (f32, f32) {
-        let seed = hash_words(&[self.key, pair]);
-        // Shuffle: an Owen scramble of the index (reverse, permute, reverse).
-        let index = laine_karras(self.sample_reversed, seed).reverse_bits();
-        // Scramble each coordinate in the reversed domain, reverse once.
-        let (x, y) = sobol_2d_reversed(index);
-        let x = laine_karras(x, hash32(seed ^ 0x1b87_3593)).reverse_bits();
-        let y = laine_karras(y, hash32(seed ^ 0xcc9e_2d51)).reverse_bits();
-        (to_unit_float(x), to_unit_float(y))
+        PairBlock::new(self.key, pair, self.sample, 1).point(0)
     }
 
     /// Position within the pixel, in [0, 1)².
@@ -143,6 +136,65 @@ impl SampleStream {
         let point = self.sobol_pair(self.pair);
         self.pair += 1;
         point
+    }
+
+    /// `count` two-dimensional draws at once from the next dimension pair,
+    /// for several samples of the same thing at one path vertex (the `-l`
+    /// light samples): draw `j` of this camera sample is point
+    /// `sample·count + j` of the pair's sequence. The index shuffle maps
+    /// that aligned block of indices to another aligned block, and an
+    /// aligned block of 2ᵏ points of a (0,2)-sequence is itself a
+    /// (0,k,2)-net: for a power-of-two `count` the draws are stratified
+    /// among themselves *and* across the pixel's samples, where separate
+    /// pairs would only stratify each draw across samples. With `count` = 1
+    /// this is exactly [`next_2d`](Self::next_2d).
+    #[inline]
+    pub fn next_2d_block(&mut self, count: u32) -> PairBlock {
+        let block = PairBlock::new(self.key, self.pair, self.sample.wrapping_mul(count), count);
+        self.pair += 1;
+        block
+    }
+}
+
+/// Draws of one dimension pair for one camera sample (see
+/// [`SampleStream::next_2d_block`]); the scrambles are hashed once for all.
+#[derive(Clone, Copy, Debug)]
+pub struct PairBlock {
+    /// Index shuffle seed of the pair.
+    seed: u32,
+    /// Scramble seeds of the two coordinates.
+    seed_x: u32,
+    seed_y: u32,
+    /// Index of the block's first point.
+    first: u32,
+    count: u32,
+}
+
+impl PairBlock {
+    #[inline]
+    fn new(key: u32, pair: u32, first: u32, count: u32) -> PairBlock {
+        let seed = hash_words(&[key, pair]);
+        PairBlock {
+            seed,
+            seed_x: hash32(seed ^ 0x1b87_3593),
+            seed_y: hash32(seed ^ 0xcc9e_2d51),
+            first,
+            count,
+        }
+    }
+
+    /// Draw `j` (< count) of the block.
+    #[inline]
+    pub fn point(&self, j: u32) -> (f32, f32) {
+        debug_assert!(j < self.count.max(1));
+        // Shuffle: an Owen scramble of the index (reverse, permute, reverse).
+        let index_reversed = self.first.wrapping_add(j).reverse_bits();
+        let index = laine_karras(index_reversed, self.seed).reverse_bits();
+        // Scramble each coordinate in the reversed domain, reverse once.
+        let (x, y) = sobol_2d_reversed(index);
+        let x = laine_karras(x, self.seed_x).reverse_bits();
+        let y = laine_karras(y, self.seed_y).reverse_bits();
+        (to_unit_float(x), to_unit_float(y))
     }
 }
 
@@ -238,6 +290,52 @@ mod tests {
                     assert!(!seen[cell], "pixel {pixel} pair {pair}: cell {cell} twice");
                     seen[cell] = true;
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn blocks_are_stratified_within_and_across_samples() {
+        for (pixel, count) in [(3u32, 4u32), (77, 16), (5, 2)] {
+            let samples = 64 / count;
+            let mut seen = [false; 64];
+            for s in 0..samples {
+                let mut stream = SampleStream::new(9, pixel, s);
+                stream.next_2d();
+                let block = stream.next_2d_block(count);
+                // Within one camera sample: `count` points, one per cell of
+                // a grid of `count` cells (2×2 for 4, 4×4 for 16, 1×2 or 2×1
+                // for 2: the (0,1,2)-net cells are elementary intervals of
+                // area 1/2, checked here as halves in x).
+                let side = (count as f32).sqrt() as usize;
+                let mut own = vec![false; count as usize];
+                for j in 0..count {
+                    let (x, y) = block.point(j);
+                    let cell = if side * side == count as usize {
+                        (x * side as f32) as usize + side * (y * side as f32) as usize
+                    } else {
+                        (x * count as f32) as usize
+                    };
+                    assert!(!own[cell], "pixel {pixel} sample {s}: cell {cell} twice");
+                    own[cell] = true;
+                    // Across the pixel: 64 points, one per cell of 8×8.
+                    let cell = (x * 8.0) as usize + 8 * (y * 8.0) as usize;
+                    assert!(
+                        !seen[cell],
+                        "pixel {pixel} count {count}: cell {cell} twice"
+                    );
+                    seen[cell] = true;
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_block_of_one_is_next_2d() {
+        for s in 0..100 {
+            let (mut a, mut b) = (SampleStream::new(2, 8, s), SampleStream::new(2, 8, s));
+            for _ in 0..3 {
+                assert_eq!(a.next_2d(), b.next_2d_block(1).point(0));
             }
         }
     }

@@ -224,12 +224,13 @@ fn direct_lights(
             inputs.settings.light_samples
         };
         let inv_count = 1.0 / count as f32;
-        for _ in 0..count {
-            // Draw only the random numbers this light uses.
-            let (u, v) = if light.is_delta() {
-                (0.5, 0.5)
-            } else {
-                paths.stream[i].next_2d()
+        // Draw only the random numbers this light uses; the `-l` samples
+        // of one light come from one stratified block.
+        let block = (!light.is_delta()).then(|| paths.stream[i].next_2d_block(count));
+        for j in 0..count {
+            let (u, v) = match &block {
+                Some(block) => block.point(j),
+                None => (0.5, 0.5),
             };
             let w = if light.uses_w() {
                 paths.stream[i].next_1d()
@@ -260,8 +261,9 @@ fn direct_hemisphere(
 ) {
     let count = inputs.lights.sources.len().max(1) as u32 * inputs.settings.light_samples;
     let scale = 2.0 * std::f32::consts::PI / count as f32;
-    for _ in 0..count {
-        let (u, v) = paths.stream[i].next_2d();
+    let block = paths.stream[i].next_2d_block(count);
+    for j in 0..count {
+        let (u, v) = block.point(j);
         let local = warp::uniform_hemisphere(u, v);
         let d = warp::to_world(local, n);
         probes.push(i, p, d, f32::INFINITY, beta * (local.z * scale));
