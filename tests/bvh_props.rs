@@ -74,6 +74,31 @@ fn compare_once(geometry: &Geometry, rays: &Rays) -> Result<usize, String> {
         let mut hits = Hits::default();
         let mut cost = vec![0u32; rays.len()];
         bvh.intersect(rays, &mut hits, &mut stats, Some(&mut cost));
+        // Without per-ray costs, rays of one octant go through packet
+        // traversal: the answers must be bit-identical to single rays'.
+        let mut packet_hits = Hits::default();
+        bvh.intersect(rays, &mut packet_hits, &mut stats, None);
+        for i in 0..rays.len() {
+            let single = (
+                hits.prim[i],
+                hits.t[i].to_bits(),
+                hits.u[i].to_bits(),
+                hits.v[i].to_bits(),
+            );
+            let packet = (
+                packet_hits.prim[i],
+                packet_hits.t[i].to_bits(),
+                packet_hits.u[i].to_bits(),
+                packet_hits.v[i].to_bits(),
+            );
+            if single != packet {
+                return Err(format!(
+                    "{accel}: ray {i} ({:?} + t {:?}): single-ray hit {single:?}, packet hit {packet:?}",
+                    rays.origin(i),
+                    rays.direction(i)
+                ));
+            }
+        }
         let mut occ = Vec::new();
         bvh.occluded(rays, &mut occ, &mut stats);
         for i in 0..rays.len() {
@@ -141,8 +166,54 @@ fn rays_strategy(n: usize, extent: f32) -> impl Strategy<Value = Rays> {
     })
 }
 
+/// Bundles of 8 rays from one origin in a narrow cone, as the samples of
+/// a pixel or the shadow rays of one path vertex are: most bundles lie in
+/// one octant and are traced as packets.
+fn coherent_rays_strategy(bundles: usize, extent: f32) -> impl Strategy<Value = Rays> {
+    proptest::collection::vec(
+        (
+            vec3(-extent..extent),
+            vec3(-1.0..1.0),
+            proptest::collection::vec(
+                (
+                    vec3(-0.1..0.1),
+                    prop_oneof![Just(f32::INFINITY), 0.0f32..3.0 * extent],
+                ),
+                8,
+            ),
+        ),
+        bundles,
+    )
+    .prop_map(|v| {
+        let mut rays = Rays::with_capacity(8 * v.len());
+        for (o, d, spread) in v {
+            for (e, t) in spread {
+                rays.push(o, d + e, t);
+            }
+        }
+        rays
+    })
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    #[test]
+    fn coherent_bundles(
+        tris in proptest::collection::vec((vec3(-1.0..1.0), vec3(-0.3..0.3), vec3(-0.3..0.3)), 1..400),
+        spheres in proptest::collection::vec((vec3(-1.0..1.0), 0.01f32..0.4), 0..8),
+        rays in coherent_rays_strategy(48, 1.5),
+    ) {
+        let mut positions = Vec::new();
+        let mut indices = Vec::new();
+        for (a, e1, e2) in tris {
+            let k = positions.len() as u32;
+            positions.extend([a, a + e1, a + e2]);
+            indices.push([k, k + 1, k + 2]);
+        }
+        let g = geometry(positions, indices, spheres);
+        compare(&g, &rays).map_err(TestCaseError::fail)?;
+    }
 
     #[test]
     fn random_soup(

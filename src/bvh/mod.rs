@@ -41,6 +41,7 @@
 
 mod build;
 mod flatten;
+mod packet;
 mod sphere;
 mod traverse;
 mod triangle;
@@ -275,6 +276,7 @@ impl Bvh {
         let (mut nodes, mut prims) = (0u64, 0u64);
         let scene = self.scene();
         let mut stack = traverse::new_stack();
+        let mut packet_stack = packet::new_packet_stack();
         let src = ray_src(rays);
         for start in (0..n).step_by(WIDTH) {
             // Rays that miss the scene's bounds skip traversal altogether
@@ -284,6 +286,44 @@ impl Bvh {
                 (Some(scene), _) => traverse::may_hit(&self.bounds, scene.extent, &src, start),
                 (None, _) => 0,
             };
+            if let (Some(scene), None) = (&scene, &cost)
+                && let Some((packet, active)) = self.packet(scene, rays, &src, start, candidates)
+            {
+                let mut best = [traverse::Closest::none(0.0); WIDTH];
+                for (lane, b) in best.iter_mut().enumerate() {
+                    if start + lane < n {
+                        *b = traverse::Closest::none(rays.t_max[start + lane]);
+                    }
+                }
+                let mut work = [traverse::Work::default(); WIDTH];
+                packet::closest(
+                    scene,
+                    &mut packet_stack,
+                    &packet,
+                    active,
+                    &mut best,
+                    &mut work,
+                );
+                for (lane, (c, w)) in best.iter().zip(&work).enumerate() {
+                    let i = start + lane;
+                    if i >= n {
+                        break;
+                    }
+                    if c.prim != crate::ray::NO_HIT {
+                        hits.t[i] = c.t;
+                        hits.prim[i] = c.prim;
+                        hits.u[i] = c.u;
+                        hits.v[i] = c.v;
+                    }
+                    nodes += (if active & (1 << lane) != 0 {
+                        w.nodes
+                    } else {
+                        1
+                    }) as u64;
+                    prims += w.prims as u64;
+                }
+                continue;
+            }
             for i in start..(start + WIDTH).min(n) {
                 let mut work = traverse::Work::default();
                 if candidates & (1 << (i - start)) == 0 {
@@ -333,6 +373,7 @@ impl Bvh {
         let (mut nodes, mut prims) = (0u64, 0u64);
         let scene = self.scene();
         let mut stack = traverse::new_stack();
+        let mut packet_stack = packet::new_packet_stack();
         let src = ray_src(rays);
         for start in (0..n).step_by(WIDTH) {
             let candidates = match (&scene, self.accel) {
@@ -340,6 +381,25 @@ impl Bvh {
                 (Some(scene), _) => traverse::may_hit(&self.bounds, scene.extent, &src, start),
                 (None, _) => 0,
             };
+            if let Some(scene) = &scene
+                && let Some((packet, active)) = self.packet(scene, rays, &src, start, candidates)
+            {
+                let mut t_max = [0.0f32; WIDTH];
+                let end = (start + WIDTH).min(n);
+                t_max[..end - start].copy_from_slice(&rays.t_max[start..end]);
+                let mut work = [traverse::Work::default(); WIDTH];
+                let hit = packet::any(scene, &mut packet_stack, &packet, active, &t_max, &mut work);
+                for (lane, w) in work.iter().enumerate().take(end - start) {
+                    occluded[start + lane] = hit & (1 << lane) != 0;
+                    nodes += (if active & (1 << lane) != 0 {
+                        w.nodes
+                    } else {
+                        1
+                    }) as u64;
+                    prims += w.prims as u64;
+                }
+                continue;
+            }
             #[allow(clippy::needless_range_loop)] // i also indexes the ray arrays
             for i in start..(start + WIDTH).min(n) {
                 let mut work = traverse::Work::default();
@@ -373,6 +433,36 @@ impl Bvh {
     }
 
     /// Which structure this is.
+    /// The rays `start..` of a batch that may hit the scene (`candidates`)
+    /// as a packet with its active-lane mask, when packet traversal pays:
+    /// a real hierarchy, at least two rays, all in one octant.
+    fn packet(
+        &self,
+        scene: &traverse::Scene,
+        rays: &Rays,
+        src: &traverse::Ray8Src,
+        start: usize,
+        candidates: u32,
+    ) -> Option<(packet::Packet, u32)> {
+        if self.accel == Accel::None || candidates.count_ones() < 2 {
+            return None;
+        }
+        let mut active = 0u32;
+        let mut c = candidates;
+        while c != 0 {
+            let lane = c.trailing_zeros() as usize;
+            c &= c - 1;
+            let i = start + lane;
+            if !traverse::never_hits(rays.origin(i), rays.direction(i), rays.t_max[i]) {
+                active |= 1 << lane;
+            }
+        }
+        if active.count_ones() < 2 {
+            return None;
+        }
+        packet::Packet::new(src, start, active, scene.extent).map(|p| (p, active))
+    }
+
     pub fn accel(&self) -> Accel {
         self.accel
     }

@@ -39,7 +39,7 @@ use super::{Lanes, WIDTH};
 use crate::ray::NO_HIT;
 
 /// γ₃ = 3ε / (1 − 3ε) for f32 (ε = 2⁻²⁴, half an ULP of 1).
-const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::EPSILON * 0.5));
+pub(crate) const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::EPSILON * 0.5));
 
 /// Slack on the ray's `t_far` (the end of the ray, or the nearest hit so
 /// far) when culling boxes.
@@ -55,8 +55,8 @@ const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::EPSILON * 0.
 /// generous bound, not a proof; the property tests end rays exactly at
 /// their brute-force hits to check it. The cost is a few extra box visits
 /// within ~1e-6 of the scene size from the end of a ray.
-const SLACK_ULPS: f32 = 32.0 * f32::EPSILON;
-const T_FAR_MARGIN: f32 = 1.0 + SLACK_ULPS;
+pub(crate) const SLACK_ULPS: f32 = 32.0 * f32::EPSILON;
+pub(crate) const T_FAR_MARGIN: f32 = 1.0 + SLACK_ULPS;
 
 /// Absolute part of the cull slack for a ray (see [`SLACK_ULPS`]):
 /// `32ε·(extent + |o|∞)/|d|∞`, with `1/|d|∞` taken as the smallest
@@ -182,7 +182,7 @@ pub(crate) struct Ray8Src<'a> {
 /// Rays that cannot hit anything: zero or non-finite direction, non-finite
 /// origin, or an empty (negative or NaN) interval.
 #[inline(always)]
-fn never_hits(o: Vec3, d: Vec3, t_max: f32) -> bool {
+pub(crate) fn never_hits(o: Vec3, d: Vec3, t_max: f32) -> bool {
     d == Vec3::ZERO || !d.is_finite() || !o.is_finite() || t_max.is_nan() || t_max < 0.0
 }
 
@@ -193,6 +193,18 @@ pub(crate) struct Closest {
     pub prim: u32,
     pub u: f32,
     pub v: f32,
+}
+
+impl Closest {
+    /// No hit yet on a ray that ends at `t_max`.
+    pub fn none(t_max: f32) -> Closest {
+        Closest {
+            t: t_max,
+            prim: NO_HIT,
+            u: 0.0,
+            v: 0.0,
+        }
+    }
 }
 
 /// Per-ray work counters.
@@ -217,7 +229,7 @@ pub(crate) fn new_stack() -> Stack {
 
 /// Tests a ray against a triangle leaf, narrowing `best`.
 #[inline(always)]
-fn leaf_triangles(
+pub(crate) fn leaf_triangles(
     groups: &[TriGroup],
     tri: &RayTri,
     best: &mut Closest,
@@ -237,7 +249,9 @@ fn leaf_triangles(
         while mask != 0 {
             let lane = mask.trailing_zeros() as usize;
             mask &= mask - 1;
-            if t[lane] <= best.t {
+            // Exact ties go to the lower id, so the result does not depend
+            // on the order the tree is walked in (single ray or packet).
+            if t[lane] < best.t || (t[lane] == best.t && g.id[lane] < best.prim) {
                 let det = h.det.to_array()[lane];
                 *best = Closest {
                     t: t[lane],
@@ -251,10 +265,18 @@ fn leaf_triangles(
 }
 
 #[inline(always)]
-fn leaf_spheres(spheres: &[PackedSphere], o: Vec3, d: Vec3, best: &mut Closest, work: &mut Work) {
+pub(crate) fn leaf_spheres(
+    spheres: &[PackedSphere],
+    o: Vec3,
+    d: Vec3,
+    best: &mut Closest,
+    work: &mut Work,
+) {
     for s in spheres {
         work.prims += 1;
-        if let Some(t) = intersect_sphere(s, o, d, best.t) {
+        if let Some(t) = intersect_sphere(s, o, d, best.t)
+            && (t < best.t || s.id < best.prim)
+        {
             *best = Closest {
                 t,
                 prim: s.id,
@@ -302,6 +324,23 @@ fn push_children(
     *top = hits;
     *sp += n - 1;
     ChildRef(hits[n - 1].child)
+}
+
+/// Pushes the children of `node` in `mask` except the first, which it
+/// returns: any-hit order, no sorting.
+#[inline(always)]
+fn push_unordered(node: &WideNode, mask: u32, stack: &mut Stack, sp: &mut usize) -> ChildRef {
+    let mut rest = mask & (mask - 1);
+    while rest != 0 {
+        let slot = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        stack[*sp] = Entry {
+            child: node.child[slot].0,
+            t: 0.0,
+        };
+        *sp += 1;
+    }
+    node.child[mask.trailing_zeros() as usize]
 }
 
 /// Closest hit along `o + t·d`, `t ∈ [0, t_max]`.
@@ -390,9 +429,9 @@ pub(crate) fn any(
         if !current.is_leaf() {
             let node = &scene.nodes[current.index()];
             work.nodes += 1;
-            let (mask, t_enter) = rb.test(node, t_max);
+            let (mask, _) = rb.test(node, t_max);
             if mask != 0 {
-                current = push_children(node, mask, t_enter, stack, &mut sp);
+                current = push_unordered(node, mask, stack, &mut sp);
                 continue;
             }
         } else {

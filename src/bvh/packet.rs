@@ -1,0 +1,345 @@
+//! Packet traversal: [`WIDTH`] rays walk the tree together, one SIMD lane
+//! per ray.
+//!
+//! Single-ray traversal tests one ray against a node's [`WIDTH`] child
+//! boxes at once; most of its cost per node is not that test but the
+//! control around it (sorting the children hit, the stack, the branches).
+//! Rays that travel together — the samples of one pixel, the shadow rays of
+//! one path vertex — visit nearly the same nodes, so here that control is
+//! paid once per node for the whole packet: each child box is tested
+//! against all rays at once (lanes = rays), the children hit by any active
+//! ray are visited nearest first along the packet's leading ray, and each
+//! stack entry carries the mask of rays that entered it and their entry
+//! distances. Leaves run the single-ray primitive tests, ray by ray.
+//!
+//! The box test is the same arithmetic as [`RayBox`](super::traverse)'s, lane
+//! by lane (same operations, same order, same conservative margins), and
+//! closest hits break exact ties by primitive id, so a ray's result does not
+//! depend on whether it was traced alone or in a packet, nor with whom.
+//!
+//! Packets are used only when all their rays point into the same octant,
+//! so one choice of near and far planes per axis serves every lane (the
+//! caller falls back to single rays otherwise, and for the per-ray cost
+//! counters of `--shading bvh-cost`).
+
+use glam::Vec3;
+
+use super::flatten::{ChildRef, WideNode};
+use super::sphere::intersect_sphere;
+use super::traverse::{
+    Closest, GAMMA3, Ray8Src, SLACK_ULPS, Scene, T_FAR_MARGIN, Work, leaf_spheres, leaf_triangles,
+};
+use super::triangle::{RayTri, intersect_group};
+use super::{Lanes, WIDTH};
+
+/// Stack entry: a child, the rays that entered it and where they did.
+#[derive(Clone, Copy)]
+pub(crate) struct PacketEntry {
+    child: u32,
+    mask: u32,
+    t_enter: Lanes,
+}
+
+impl Default for PacketEntry {
+    fn default() -> Self {
+        PacketEntry {
+            child: 0,
+            mask: 0,
+            t_enter: Lanes::ZERO,
+        }
+    }
+}
+
+/// Traversal stack of a packet (reused across packets).
+pub(crate) type PacketStack = Vec<PacketEntry>;
+
+pub(crate) fn new_packet_stack() -> PacketStack {
+    vec![PacketEntry::default(); super::traverse::STACK_SIZE]
+}
+
+/// The packet's rays, lane-wise, with the per-ray constants of the slab
+/// test. Inactive lanes hold whatever the batch has there (or zeros past
+/// its end) and are masked out everywhere.
+pub(crate) struct Packet {
+    o: [Lanes; 3],
+    inv: [Lanes; 3],
+    /// Near plane per axis (0 = min corner), shared by every lane.
+    near: [usize; 3],
+    /// Absolute cull slack per lane (see `traverse::SLACK_ULPS`).
+    slack: Lanes,
+    /// Scalar origin and direction per lane, for the leaf tests.
+    org: [Vec3; WIDTH],
+    dir: [Vec3; WIDTH],
+    /// Direction of the first active ray: orders the children.
+    lead: Vec3,
+}
+
+impl Packet {
+    /// Gathers rays `start..start + WIDTH` of `rays` whose bits are set in
+    /// `active` into a packet, or `None` if their directions do not all lie
+    /// in one octant.
+    #[inline]
+    pub fn new(rays: &Ray8Src, start: usize, active: u32, extent: f32) -> Option<Packet> {
+        let end = (start + WIDTH).min(rays.t_max.len());
+        let load = |v: &[f32]| Lanes::from(&v[start..end]);
+        let dir = [load(rays.dir[0]), load(rays.dir[1]), load(rays.dir[2])];
+        let inv = dir.map(|d| Lanes::ONE / d);
+        // The sign of 1/d (±∞ for ±0) picks the near plane, as in RayBox.
+        let mut near = [0usize; 3];
+        for axis in 0..3 {
+            let negative = inv[axis].simd_lt(Lanes::ZERO).to_bitmask() & active;
+            near[axis] = if negative == 0 {
+                0
+            } else if negative == active {
+                1
+            } else {
+                return None;
+            };
+        }
+        let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
+        // Same operations in the same order as `traverse::cull_slack`.
+        let min_inv = inv[0].abs().fast_min(inv[1].abs()).fast_min(inv[2].abs());
+        let max_abs_o = o[0].abs().fast_max(o[1].abs()).fast_max(o[2].abs());
+        let slack = Lanes::splat(SLACK_ULPS) * (Lanes::splat(extent) + max_abs_o) * min_inv;
+        let lane = |v: &[Lanes; 3], i: usize| {
+            Vec3::new(v[0].as_array()[i], v[1].as_array()[i], v[2].as_array()[i])
+        };
+        let org = std::array::from_fn(|i| lane(&o, i));
+        let dir = std::array::from_fn(|i| lane(&dir, i));
+        Some(Packet {
+            o,
+            inv,
+            near,
+            slack,
+            org,
+            dir,
+            lead: dir[active.trailing_zeros() as usize],
+        })
+    }
+
+    /// Cull distance per lane for the current far ends `t_far`.
+    #[inline(always)]
+    fn cull(&self, t_far: Lanes) -> Lanes {
+        t_far * Lanes::splat(T_FAR_MARGIN) + self.slack
+    }
+
+    /// Tests child `slot` of `node` against every lane; returns the lanes
+    /// (within `mask`) that enter it and their entry distances.
+    #[inline(always)]
+    fn test(&self, node: &WideNode, slot: usize, cull: Lanes, mask: u32) -> (u32, Lanes) {
+        let b = &node.bounds;
+        let mut t_enter = Lanes::ZERO;
+        let mut t_exit = Lanes::splat(f32::INFINITY);
+        #[allow(clippy::needless_range_loop)] // reads four arrays per axis
+        for axis in 0..3 {
+            let n = self.near[axis];
+            let lo = Lanes::splat(b[n][axis].as_array()[slot]);
+            let hi = Lanes::splat(b[1 - n][axis].as_array()[slot]);
+            let t0 = (lo - self.o[axis]) * self.inv[axis];
+            let t1 = (hi - self.o[axis]) * self.inv[axis];
+            t_enter = t0.fast_max(t_enter);
+            t_exit = t1.fast_min(t_exit);
+        }
+        let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(cull);
+        (t_enter.simd_le(t_exit).to_bitmask() & mask, t_enter)
+    }
+}
+
+/// Visits the children of `node` entered by rays of `mask`: pushes the far
+/// ones and returns the nearest (along the leading ray), or `None` if no
+/// ray enters any child.
+#[inline(always)]
+fn descend(
+    packet: &Packet,
+    node: &WideNode,
+    mask: u32,
+    cull: Lanes,
+    stack: &mut PacketStack,
+    sp: &mut usize,
+) -> Option<(ChildRef, u32)> {
+    // Occupied slots (empty ones have +∞ minimum corners).
+    let mut slots = node.bounds[0][0]
+        .simd_lt(Lanes::splat(f32::INFINITY))
+        .to_bitmask();
+    // Order key: the box centre (doubled) along the leading direction.
+    let l = packet.lead;
+    let key = (node.bounds[0][0] + node.bounds[1][0]) * Lanes::splat(l.x)
+        + (node.bounds[0][1] + node.bounds[1][1]) * Lanes::splat(l.y)
+        + (node.bounds[0][2] + node.bounds[1][2]) * Lanes::splat(l.z);
+    let key = key.as_array();
+    // The children entered go straight onto the stack, insertion-sorted
+    // far to near; the nearest is then taken back off.
+    let base = *sp;
+    let mut keys = [0.0f32; WIDTH];
+    let mut n = 0;
+    while slots != 0 {
+        let slot = slots.trailing_zeros() as usize;
+        slots &= slots - 1;
+        let (m, t_enter) = packet.test(node, slot, cull, mask);
+        if m == 0 {
+            continue;
+        }
+        let k = key[slot];
+        let mut j = n;
+        while j > 0 && keys[j - 1] < k {
+            stack[base + j] = stack[base + j - 1];
+            keys[j] = keys[j - 1];
+            j -= 1;
+        }
+        stack[base + j] = PacketEntry {
+            child: node.child[slot].0,
+            mask: m,
+            t_enter,
+        };
+        keys[j] = k;
+        n += 1;
+    }
+    if n == 0 {
+        return None;
+    }
+    *sp = base + n - 1;
+    let nearest = stack[*sp];
+    Some((ChildRef(nearest.child), nearest.mask))
+}
+
+/// Closest hits of the packet's `active` rays. `best` holds each lane's
+/// initial `t_max` (and no hit) and receives the results.
+pub(crate) fn closest(
+    scene: &Scene,
+    stack: &mut PacketStack,
+    packet: &Packet,
+    active: u32,
+    best: &mut [Closest; WIDTH],
+    work: &mut [Work; WIDTH],
+) {
+    let mut tri: [Option<RayTri>; WIDTH] = [None; WIDTH];
+    let mut t_best = Lanes::from(best.map(|b| b.t));
+    let mut sp = 0usize;
+    let mut current = (scene.root, active);
+    loop {
+        let (child, mask) = current;
+        if !child.is_leaf() {
+            let node = &scene.nodes[child.index()];
+            let mut m = mask;
+            while m != 0 {
+                work[m.trailing_zeros() as usize].nodes += 1;
+                m &= m - 1;
+            }
+            if let Some(next) = descend(packet, node, mask, packet.cull(t_best), stack, &mut sp) {
+                current = next;
+                continue;
+            }
+        } else {
+            let (first, count) = (child.index(), child.count());
+            let mut m = mask;
+            while m != 0 {
+                let i = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let (o, d) = (packet.org[i], packet.dir[i]);
+                if child.is_sphere() {
+                    leaf_spheres(
+                        &scene.spheres[first..first + count],
+                        o,
+                        d,
+                        &mut best[i],
+                        &mut work[i],
+                    );
+                } else {
+                    leaf_triangles(
+                        &scene.tri_groups[first..first + count],
+                        tri[i].get_or_insert_with(|| RayTri::new(o, d)),
+                        &mut best[i],
+                        &mut work[i],
+                        true,
+                    );
+                }
+            }
+            t_best = Lanes::from(best.map(|b| b.t));
+        }
+        // Pop the next entry some ray still needs: entered no farther than
+        // that ray's nearest hit so far.
+        loop {
+            if sp == 0 {
+                return;
+            }
+            sp -= 1;
+            let e = stack[sp];
+            let m = e.mask & e.t_enter.simd_le(packet.cull(t_best)).to_bitmask();
+            if m != 0 {
+                current = (ChildRef(e.child), m);
+                break;
+            }
+        }
+    }
+}
+
+/// Any-hit test of the packet's `active` rays (each up to its `t_max`);
+/// returns the mask of occluded rays.
+pub(crate) fn any(
+    scene: &Scene,
+    stack: &mut PacketStack,
+    packet: &Packet,
+    active: u32,
+    t_max: &[f32; WIDTH],
+    work: &mut [Work; WIDTH],
+) -> u32 {
+    let mut tri: [Option<RayTri>; WIDTH] = [None; WIDTH];
+    let cull = packet.cull(Lanes::from(*t_max));
+    // Rays still looking for an occluder.
+    let mut open = active;
+    let mut sp = 0usize;
+    let mut current = (scene.root, active);
+    loop {
+        let (child, mask) = current;
+        if !child.is_leaf() {
+            let node = &scene.nodes[child.index()];
+            let mut m = mask;
+            while m != 0 {
+                work[m.trailing_zeros() as usize].nodes += 1;
+                m &= m - 1;
+            }
+            if let Some(next) = descend(packet, node, mask, cull, stack, &mut sp) {
+                current = next;
+                continue;
+            }
+        } else {
+            let (first, count) = (child.index(), child.count());
+            let mut m = mask;
+            while m != 0 {
+                let i = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let (o, d) = (packet.org[i], packet.dir[i]);
+                let hit = if child.is_sphere() {
+                    scene.spheres[first..first + count].iter().any(|s| {
+                        work[i].prims += 1;
+                        intersect_sphere(s, o, d, t_max[i]).is_some()
+                    })
+                } else {
+                    let tri = tri[i].get_or_insert_with(|| RayTri::new(o, d));
+                    scene.tri_groups[first..first + count].iter().any(|g| {
+                        work[i].prims += g.len();
+                        intersect_group(g, tri, t_max[i]).mask != 0
+                    })
+                };
+                if hit {
+                    open &= !(1 << i);
+                }
+            }
+            if open == 0 {
+                return active;
+            }
+        }
+        loop {
+            if sp == 0 {
+                return active & !open;
+            }
+            sp -= 1;
+            let e = stack[sp];
+            let m = e.mask & open;
+            if m != 0 {
+                current = (ChildRef(e.child), m);
+                break;
+            }
+        }
+    }
+}
