@@ -384,9 +384,10 @@ impl Bvh {
             if let Some(scene) = &scene
                 && let Some((packet, active)) = self.packet(scene, rays, &src, start, candidates)
             {
-                let mut t_max = [0.0f32; WIDTH];
                 let end = (start + WIDTH).min(n);
-                t_max[..end - start].copy_from_slice(&rays.t_max[start..end]);
+                let t_max: [f32; WIDTH] = std::array::from_fn(|lane| {
+                    rays.t_max.get(start + lane).copied().unwrap_or(0.0)
+                });
                 let mut work = [traverse::Work::default(); WIDTH];
                 let hit = packet::any(scene, &mut packet_stack, &packet, active, &t_max, &mut work);
                 for (lane, w) in work.iter().enumerate().take(end - start) {
@@ -436,6 +437,7 @@ impl Bvh {
     /// The rays `start..` of a batch that may hit the scene (`candidates`)
     /// as a packet with its active-lane mask, when packet traversal pays:
     /// a real hierarchy, at least two rays, all in one octant.
+    #[inline(always)]
     fn packet(
         &self,
         scene: &traverse::Scene,

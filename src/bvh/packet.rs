@@ -40,21 +40,12 @@ pub(crate) struct PacketEntry {
     t_enter: Lanes,
 }
 
-impl Default for PacketEntry {
-    fn default() -> Self {
-        PacketEntry {
-            child: 0,
-            mask: 0,
-            t_enter: Lanes::ZERO,
-        }
-    }
-}
-
-/// Traversal stack of a packet (reused across packets).
+/// Traversal stack of a packet (reused across the packets of a batch). It
+/// grows as needed, so creating one initialises nothing.
 pub(crate) type PacketStack = Vec<PacketEntry>;
 
 pub(crate) fn new_packet_stack() -> PacketStack {
-    vec![PacketEntry::default(); super::traverse::STACK_SIZE]
+    Vec::with_capacity(64)
 }
 
 /// The packet's rays, lane-wise, with the per-ray constants of the slab
@@ -78,7 +69,7 @@ impl Packet {
     /// Gathers rays `start..start + WIDTH` of `rays` whose bits are set in
     /// `active` into a packet, or `None` if their directions do not all lie
     /// in one octant.
-    #[inline]
+    #[inline(always)]
     pub fn new(rays: &Ray8Src, start: usize, active: u32, extent: f32) -> Option<Packet> {
         let end = (start + WIDTH).min(rays.t_max.len());
         let load = |v: &[f32]| Lanes::from(&v[start..end]);
@@ -155,7 +146,6 @@ fn descend(
     mask: u32,
     cull: Lanes,
     stack: &mut PacketStack,
-    sp: &mut usize,
 ) -> Option<(ChildRef, u32)> {
     // Occupied slots (empty ones have +∞ minimum corners).
     let mut slots = node.bounds[0][0]
@@ -167,39 +157,40 @@ fn descend(
         + (node.bounds[0][1] + node.bounds[1][1]) * Lanes::splat(l.y)
         + (node.bounds[0][2] + node.bounds[1][2]) * Lanes::splat(l.z);
     let key = key.as_array();
-    // The children entered go straight onto the stack, insertion-sorted
-    // far to near; the nearest is then taken back off.
-    let base = *sp;
-    let mut keys = [0.0f32; WIDTH];
+    let mut masks = [0u32; WIDTH];
+    let mut t_enter = [Lanes::ZERO; WIDTH];
+    // Slots entered, insertion-sorted far to near.
+    let mut order = [0usize; WIDTH];
     let mut n = 0;
     while slots != 0 {
         let slot = slots.trailing_zeros() as usize;
         slots &= slots - 1;
-        let (m, t_enter) = packet.test(node, slot, cull, mask);
+        let (m, t) = packet.test(node, slot, cull, mask);
         if m == 0 {
             continue;
         }
-        let k = key[slot];
+        masks[slot] = m;
+        t_enter[slot] = t;
         let mut j = n;
-        while j > 0 && keys[j - 1] < k {
-            stack[base + j] = stack[base + j - 1];
-            keys[j] = keys[j - 1];
+        while j > 0 && key[order[j - 1]] < key[slot] {
+            order[j] = order[j - 1];
             j -= 1;
         }
-        stack[base + j] = PacketEntry {
-            child: node.child[slot].0,
-            mask: m,
-            t_enter,
-        };
-        keys[j] = k;
+        order[j] = slot;
         n += 1;
     }
     if n == 0 {
         return None;
     }
-    *sp = base + n - 1;
-    let nearest = stack[*sp];
-    Some((ChildRef(nearest.child), nearest.mask))
+    for &slot in &order[..n - 1] {
+        stack.push(PacketEntry {
+            child: node.child[slot].0,
+            mask: masks[slot],
+            t_enter: t_enter[slot],
+        });
+    }
+    let nearest = order[n - 1];
+    Some((node.child[nearest], masks[nearest]))
 }
 
 /// Closest hits of the packet's `active` rays. `best` holds each lane's
@@ -214,7 +205,7 @@ pub(crate) fn closest(
 ) {
     let mut tri: [Option<RayTri>; WIDTH] = [None; WIDTH];
     let mut t_best = Lanes::from(best.map(|b| b.t));
-    let mut sp = 0usize;
+    stack.clear();
     let mut current = (scene.root, active);
     loop {
         let (child, mask) = current;
@@ -225,7 +216,7 @@ pub(crate) fn closest(
                 work[m.trailing_zeros() as usize].nodes += 1;
                 m &= m - 1;
             }
-            if let Some(next) = descend(packet, node, mask, packet.cull(t_best), stack, &mut sp) {
+            if let Some(next) = descend(packet, node, mask, packet.cull(t_best), stack) {
                 current = next;
                 continue;
             }
@@ -259,11 +250,9 @@ pub(crate) fn closest(
         // Pop the next entry some ray still needs: entered no farther than
         // that ray's nearest hit so far.
         loop {
-            if sp == 0 {
+            let Some(e) = stack.pop() else {
                 return;
-            }
-            sp -= 1;
-            let e = stack[sp];
+            };
             let m = e.mask & e.t_enter.simd_le(packet.cull(t_best)).to_bitmask();
             if m != 0 {
                 current = (ChildRef(e.child), m);
@@ -287,7 +276,7 @@ pub(crate) fn any(
     let cull = packet.cull(Lanes::from(*t_max));
     // Rays still looking for an occluder.
     let mut open = active;
-    let mut sp = 0usize;
+    stack.clear();
     let mut current = (scene.root, active);
     loop {
         let (child, mask) = current;
@@ -298,7 +287,7 @@ pub(crate) fn any(
                 work[m.trailing_zeros() as usize].nodes += 1;
                 m &= m - 1;
             }
-            if let Some(next) = descend(packet, node, mask, cull, stack, &mut sp) {
+            if let Some(next) = descend(packet, node, mask, cull, stack) {
                 current = next;
                 continue;
             }
@@ -330,11 +319,9 @@ pub(crate) fn any(
             }
         }
         loop {
-            if sp == 0 {
+            let Some(e) = stack.pop() else {
                 return active & !open;
-            }
-            sp -= 1;
-            let e = stack[sp];
+            };
             let m = e.mask & open;
             if m != 0 {
                 current = (ChildRef(e.child), m);
