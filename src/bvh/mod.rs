@@ -19,6 +19,10 @@
 //! * [`traverse`](self::traverse): the batch is first culled [`WIDTH`]
 //!   rays at a time against the scene bounds, then each surviving ray walks
 //!   the tree nearest child first with a conservative (Ize 2013) slab test.
+//! * [`packet`](self::packet): when those [`WIDTH`] rays all point into one
+//!   octant (the samples of a pixel, the shadow rays of a path vertex) they
+//!   walk the tree together instead, one lane per ray, with the same
+//!   answers bit for bit.
 //! * [`triangle`](self::triangle): watertight ray/triangle test (Woop,
 //!   Benthin, Wald 2013), [`TRI_WIDTH`] triangles per SIMD test.
 //! * [`sphere`](self::sphere): numerically stable ray/sphere test; spheres
@@ -34,10 +38,10 @@
 //! of the before/after comparison.
 //!
 //! Code generation: all SIMD goes through `wide`, so it is portable and
-//! needs no `unsafe`; on the default x86-64 target an 8-lane register is
-//! two SSE registers. `-C target-cpu=x86-64-v3` (AVX2) makes them native;
-//! on the shared benchmark machine that gave no consistent gain (PERF.md),
-//! so no special flags are needed.
+//! needs no `unsafe`. The project's `.cargo/config.toml` compiles for the
+//! host CPU, where an 8-lane register is one AVX register; on the baseline
+//! x86-64 target it is two SSE registers (about 15% slower renders,
+//! PERF.md).
 
 mod build;
 mod flatten;
