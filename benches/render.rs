@@ -82,7 +82,7 @@ fn batch_sizes(c: &mut Criterion) {
     // batch size below is exercised.
     let spp = 32;
     group.throughput(Throughput::Elements(240 * 180 * spp as u64));
-    for batch in [256usize, 1024, 4096, 8192] {
+    for batch in [256usize, 512, 1024, 2048, 4096, 8192] {
         let s = RenderSettings {
             width: 240,
             height: 180,
