@@ -133,6 +133,7 @@ fn nonsense_values_are_refused_with_a_usage_hint() {
         vec!["-e", "sky.exr", scene],
         vec!["-p", "0", "0", "10", "10", scene],
         vec!["-r", "65536", "65536", scene],
+        vec!["--roulette-depth", "-1", scene],
     ] {
         let o = wavepath(&args);
         let err = stderr(&o);
@@ -188,6 +189,32 @@ fn stats_report_every_stage() {
             .any(|l| l.starts_with("probe") && l.contains("skipped")),
         "{err}"
     );
+}
+
+#[test]
+fn roulette_depth_decides_where_paths_may_end() {
+    // Fewer path vertices are shaded when roulette starts at the first
+    // bounce than at the default fifth, and none end early without it.
+    let out = scratch("roulette.png");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    let vertices = |extra: &[&str]| -> u64 {
+        let mut args = vec!["-q", "--stats", "-s", "8", "-m", "5", "-r", "32", "24"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["-f", out.to_str().unwrap(), scene]);
+        let o = wavepath(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let err = stderr(&o);
+        let line = err
+            .lines()
+            .find(|l| l.starts_with("shade"))
+            .unwrap_or_else(|| panic!("no shade line: {err}"));
+        line.split_whitespace().nth(1).unwrap().parse().unwrap()
+    };
+    let early = vertices(&["--roulette-depth", "1"]);
+    let default = vertices(&[]);
+    let off = vertices(&["--no-roulette"]);
+    assert!(early < default, "{early} vs {default}");
+    assert!(default <= off, "{default} vs {off}");
 }
 
 #[test]

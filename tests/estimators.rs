@@ -76,15 +76,23 @@ fn furnace_direct_lighting_is_exact() {
 #[test]
 fn furnace_global_illumination_matches_the_geometric_series() {
     let scene = furnace();
-    // Roulette starts at the sixth vertex: -m 12 plays it for seven.
-    for (m, rr) in [(2, true), (5, true), (12, true), (12, false)] {
+    // Roulette from the default depth (5: -m 12 plays it at seven
+    // vertices), from depth 1 (every bounce after the first), and off.
+    for (m, rr, from) in [
+        (2, true, 1),
+        (5, true, 1),
+        (5, true, 5),
+        (12, true, 5),
+        (12, false, 5),
+    ] {
         let mut s = settings(24, 18, 32, m);
         s.integrator.russian_roulette = rr;
+        s.integrator.roulette_depth = from;
         let image = render(&scene, &s, 2);
         let expected: f64 = (1..=m).map(furnace_bounce).sum();
         let est = channel(&image, 1);
         assert_unbiased(
-            &format!("furnace -m {m} roulette {rr}"),
+            &format!("furnace -m {m} roulette {rr} from depth {from}"),
             &est,
             &vec![expected; est.len()],
             1e-4,

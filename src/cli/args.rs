@@ -75,6 +75,10 @@ pub struct Args {
     #[arg(long = "no-roulette")]
     pub no_roulette: bool,
 
+    /// First path vertex (0 = the camera ray's hit) at which Russian roulette may end a path; 1 trades error for speed per sample
+    #[arg(long = "roulette-depth", value_name = "N", default_value_t = crate::integrator::ROULETTE_DEPTH)]
+    pub roulette_depth: u32,
+
     /// Camera settings file written by the CS184 viewer (not supported)
     #[arg(short = 'c', long = "camera", value_name = "FILE")]
     pub camera: Option<PathBuf>,

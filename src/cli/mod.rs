@@ -143,6 +143,7 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
             hemisphere: args.hemisphere,
             bounces: args.bounces,
             russian_roulette: !args.no_roulette,
+            roulette_depth: args.roulette_depth,
         },
     };
     (settings, output)

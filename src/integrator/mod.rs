@@ -9,4 +9,4 @@ pub mod bsdf;
 pub mod lights;
 pub mod settings;
 
-pub use settings::{Bounces, Settings, View};
+pub use settings::{Bounces, ROULETTE_DEPTH, Settings, View};

@@ -270,24 +270,11 @@ fn direct_hemisphere(
     }
 }
 
-/// First path vertex (0 = the camera ray's hit) at which Russian roulette
-/// may end a path: the first five bounces always continue (Mitsuba's
-/// default `rr_depth` is likewise 5).
-///
-/// Measured on CBbunny, `-s 64 -l 1 -m 5` (PERF.md, "Russian roulette"):
-/// playing roulette from the second bounce on (vertex 1) halved the time
-/// per sample but nearly tripled the relMSE (3.2e-3 vs 1.1e-3), taking
-/// 1.8x longer to reach a given error. In a closed room most of the light
-/// has bounced several times, and a path cut short there throws away a
-/// large share of its pixel's value. Roulette still bounds the work of
-/// deep renders (`-m 10` and beyond).
-const ROULETTE_FROM_VERTEX: u32 = 5;
-
 /// Samples the next direction (cosine-weighted: the Lambertian weight
 /// f·cos/pdf is the albedo) and plays Russian roulette. Returns whether the
 /// path survives.
 ///
-/// Roulette: from vertex [`ROULETTE_FROM_VERTEX`] on, a path continues with
+/// Roulette: from vertex `settings.roulette_depth` on, a path continues with
 /// probability q = min(1, max component of its throughput) and survivors
 /// divide their throughput by q, so the expected contribution is unchanged.
 fn continue_path(
@@ -299,7 +286,7 @@ fn continue_path(
     albedo: Vec3,
 ) -> bool {
     let mut throughput = paths.throughput[i] * albedo;
-    if settings.russian_roulette && paths.depth[i] >= ROULETTE_FROM_VERTEX {
+    if settings.russian_roulette && paths.depth[i] >= settings.roulette_depth {
         let q = throughput.max_element().min(1.0);
         if paths.stream[i].next_1d() >= q {
             return false;
