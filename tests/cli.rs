@@ -193,12 +193,13 @@ fn stats_report_every_stage() {
 
 #[test]
 fn roulette_depth_decides_where_paths_may_end() {
-    // Fewer path vertices are shaded when roulette starts at the first
-    // bounce than at the default fifth, and none end early without it.
+    // Path vertices shaded (the `shade` line of --stats) for a given
+    // roulette setting. A path continues from vertex d only if d + 1 < -m,
+    // and roulette applies at vertices d >= --roulette-depth.
     let out = scratch("roulette.png");
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
-    let vertices = |extra: &[&str]| -> u64 {
-        let mut args = vec!["-q", "--stats", "-s", "8", "-m", "5", "-r", "32", "24"];
+    let vertices = |depth: &str, extra: &[&str]| -> u64 {
+        let mut args = vec!["-q", "--stats", "-s", "8", "-m", depth, "-r", "32", "24"];
         args.extend_from_slice(extra);
         args.extend_from_slice(&["-f", out.to_str().unwrap(), scene]);
         let o = wavepath(&args);
@@ -210,11 +211,19 @@ fn roulette_depth_decides_where_paths_may_end() {
             .unwrap_or_else(|| panic!("no shade line: {err}"));
         line.split_whitespace().nth(1).unwrap().parse().unwrap()
     };
-    let early = vertices(&["--roulette-depth", "1"]);
-    let default = vertices(&[]);
-    let off = vertices(&["--no-roulette"]);
-    assert!(early < default, "{early} vs {default}");
-    assert!(default <= off, "{default} vs {off}");
+    // -m 8: the default (from vertex 5) plays at vertices 5 and 6.
+    let early = vertices("8", &["--roulette-depth", "1"]);
+    let default = vertices("8", &[]);
+    let off = vertices("8", &["--no-roulette"]);
+    assert!(
+        early < default && default < off,
+        "{early} / {default} / {off}"
+    );
+    // -m 7: paths continue from vertices 0..=5, so roulette from vertex 6
+    // never plays and from vertex 5 does.
+    let off = vertices("7", &["--no-roulette"]);
+    assert_eq!(vertices("7", &["--roulette-depth", "6"]), off);
+    assert!(vertices("7", &["--roulette-depth", "5"]) < off);
 }
 
 #[test]

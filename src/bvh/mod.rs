@@ -319,11 +319,13 @@ impl Bvh {
                         hits.u[i] = c.u;
                         hits.v[i] = c.v;
                     }
-                    nodes += (if active & (1 << lane) != 0 {
-                        w.nodes
+                    // As on the single-ray path: one node (the scene box)
+                    // for rays it culled, none for rays that cannot hit.
+                    nodes += if active & (1 << lane) != 0 {
+                        w.nodes as u64
                     } else {
-                        1
-                    }) as u64;
+                        u64::from(candidates & (1 << lane) == 0)
+                    };
                     prims += w.prims as u64;
                 }
                 continue;
@@ -396,11 +398,13 @@ impl Bvh {
                 let hit = packet::any(scene, &mut packet_stack, &packet, active, &t_max, &mut work);
                 for (lane, w) in work.iter().enumerate().take(end - start) {
                     occluded[start + lane] = hit & (1 << lane) != 0;
-                    nodes += (if active & (1 << lane) != 0 {
-                        w.nodes
+                    // As on the single-ray path: one node (the scene box)
+                    // for rays it culled, none for rays that cannot hit.
+                    nodes += if active & (1 << lane) != 0 {
+                        w.nodes as u64
                     } else {
-                        1
-                    }) as u64;
+                        u64::from(candidates & (1 << lane) == 0)
+                    };
                     prims += w.prims as u64;
                 }
                 continue;
@@ -437,7 +441,6 @@ impl Bvh {
         stats.primitives_tested += prims;
     }
 
-    /// Which structure this is.
     /// The rays `start..` of a batch that may hit the scene (`candidates`)
     /// as a packet with its active-lane mask, when packet traversal pays:
     /// a real hierarchy, at least two rays, all in one octant.
@@ -469,6 +472,7 @@ impl Bvh {
         packet::Packet::new(src, start, active, scene.extent).map(|p| (p, active))
     }
 
+    /// Which structure this is.
     pub fn accel(&self) -> Accel {
         self.accel
     }

@@ -423,8 +423,8 @@ pub(crate) fn any(
     let mut tri: Option<RayTri> = None;
     let mut sp = 0usize;
     let mut current = scene.root;
-    // Nearest first here too: occluders close to the origin (often the
-    // surface's own neighbourhood) are found, and the ray stopped, sooner.
+    // Children are visited in slot order, unsorted: any occluder ends the
+    // search, and sorting cost more than it saved on shadow rays.
     loop {
         if !current.is_leaf() {
             let node = &scene.nodes[current.index()];

@@ -172,7 +172,9 @@ pub(crate) fn intersect_group(g: &TriGroup, r: &RayTri, t_far: f32) -> GroupHit 
     let neg = u.simd_lt(zero) | v.simd_lt(zero) | w.simd_lt(zero);
     let pos = u.simd_gt(zero) | v.simd_gt(zero) | w.simd_gt(zero);
     let det = u + v + w;
-    let inside = !(neg & pos) & det.simd_ne(zero);
+    // Ordered comparisons: a NaN det (padding lanes, degenerate triangles)
+    // is not inside, so groups with padding can take the early exit too.
+    let inside = !(neg & pos) & (det.simd_lt(zero) | det.simd_gt(zero));
     // Most groups a ray reaches have no triangle it passes through: skip
     // the distance (and its division) for those.
     if inside.to_bitmask() == 0 {

@@ -71,7 +71,7 @@ pub struct Args {
     #[arg(long = "bounces", value_enum, default_value_t = Bounces::Accumulate)]
     pub bounces: Bounces,
 
-    /// Turn Russian roulette off (slower; the mean is the same)
+    /// Turn Russian roulette off (the mean is the same; no difference up to -m 6 with the default --roulette-depth)
     #[arg(long = "no-roulette")]
     pub no_roulette: bool,
 

@@ -42,12 +42,13 @@ pub struct Settings {
 }
 
 /// Default [`Settings::roulette_depth`]: the first five bounces always
-/// continue (Mitsuba's default `rr_depth` is likewise 5).
+/// continue, so roulette plays no part up to `-m 6`.
 ///
 /// Measured on CBbunny, `-s 64 -l 1 -m 5` (PERF.md, "Convergence"):
 /// playing roulette from the second bounce on (depth 1) made a sample 1.6x
 /// cheaper but nearly tripled the relMSE (3.2e-3 vs 1.1e-3), so a given
-/// error took 1.8x longer. In a closed room most of the light has bounced
+/// error took 1.8x longer (2.0x once the reference's own noise is
+/// removed). In a closed room most of the light has bounced
 /// several times, and a path cut short there throws away a large share of
 /// its pixel's value. Roulette still bounds the work of deep renders
 /// (`-m 10` and beyond).

@@ -140,17 +140,21 @@ impl SampleStream {
 
     /// `count` two-dimensional draws at once from the next dimension pair,
     /// for several samples of the same thing at one path vertex (the `-l`
-    /// light samples): draw `j` of this camera sample is point
-    /// `sample·count + j` of the pair's sequence. The index shuffle maps
-    /// that aligned block of indices to another aligned block, and an
-    /// aligned block of 2ᵏ points of a (0,2)-sequence is itself a
-    /// (0,k,2)-net: for a power-of-two `count` the draws are stratified
-    /// among themselves *and* across the pixel's samples, where separate
-    /// pairs would only stratify each draw across samples. With `count` = 1
+    /// light samples): with B the power of two at or above `count`, draw `j`
+    /// of this camera sample is point `sample·B + j` of the pair's
+    /// sequence. The index shuffle maps that aligned block of B indices to
+    /// another aligned block, and an aligned block of 2ᵏ points of a
+    /// (0,2)-sequence is itself a (0,k,2)-net: for a power-of-two `count`
+    /// the draws are stratified among themselves *and* across the pixel's
+    /// samples, where separate pairs would only stratify each draw across
+    /// samples; for other counts, across samples still. With `count` = 1
     /// this is exactly [`next_2d`](Self::next_2d).
     #[inline]
     pub fn next_2d_block(&mut self, count: u32) -> PairBlock {
-        let block = PairBlock::new(self.key, self.pair, self.sample.wrapping_mul(count), count);
+        // Blocks are aligned to a power of two so that any `count` keeps the
+        // stratification across samples (a count of 3 uses 3 of every 4).
+        let stride = count.max(1).next_power_of_two();
+        let block = PairBlock::new(self.key, self.pair, self.sample.wrapping_mul(stride), count);
         self.pair += 1;
         block
     }
