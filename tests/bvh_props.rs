@@ -34,6 +34,18 @@ fn geometry(positions: Vec<Vec3>, indices: Vec<[u32; 3]>, spheres: Vec<(Vec3, f3
     }
 }
 
+/// Separate triangles, each a corner and two edge vectors, plus spheres.
+fn soup(tris: Vec<(Vec3, Vec3, Vec3)>, spheres: Vec<(Vec3, f32)>) -> Geometry {
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for (a, e1, e2) in tris {
+        let k = positions.len() as u32;
+        positions.extend([a, a + e1, a + e2]);
+        indices.push([k, k + 1, k + 2]);
+    }
+    geometry(positions, indices, spheres)
+}
+
 /// Checks `accel` against brute force on `rays`; returns a description of
 /// the first disagreement.
 fn compare(geometry: &Geometry, rays: &Rays) -> Result<usize, String> {
@@ -196,14 +208,7 @@ proptest! {
         spheres in proptest::collection::vec((vec3(-1.0..1.0), 0.01f32..0.4), 0..8),
         rays in coherent_rays_strategy(48, 1.5),
     ) {
-        let mut positions = Vec::new();
-        let mut indices = Vec::new();
-        for (a, e1, e2) in tris {
-            let k = positions.len() as u32;
-            positions.extend([a, a + e1, a + e2]);
-            indices.push([k, k + 1, k + 2]);
-        }
-        let g = geometry(positions, indices, spheres);
+        let g = soup(tris, spheres);
         compare(&g, &rays).map_err(TestCaseError::fail)?;
     }
 
@@ -212,14 +217,7 @@ proptest! {
         tris in proptest::collection::vec((vec3(-1.0..1.0), vec3(-0.3..0.3), vec3(-0.3..0.3)), 1..400),
         rays in rays_strategy(256, 1.5),
     ) {
-        let mut positions = Vec::new();
-        let mut indices = Vec::new();
-        for (a, e1, e2) in tris {
-            let k = positions.len() as u32;
-            positions.extend([a, a + e1, a + e2]);
-            indices.push([k, k + 1, k + 2]);
-        }
-        let g = geometry(positions, indices, Vec::new());
+        let g = soup(tris, Vec::new());
         compare(&g, &rays).map_err(TestCaseError::fail)?;
     }
 
@@ -229,14 +227,7 @@ proptest! {
         tris in proptest::collection::vec((vec3(-1.0..1.0), vec3(-0.3..0.3), vec3(-0.3..0.3)), 0..60),
         rays in rays_strategy(256, 1.5),
     ) {
-        let mut positions = Vec::new();
-        let mut indices = Vec::new();
-        for (a, e1, e2) in tris {
-            let k = positions.len() as u32;
-            positions.extend([a, a + e1, a + e2]);
-            indices.push([k, k + 1, k + 2]);
-        }
-        let g = geometry(positions, indices, spheres);
+        let g = soup(tris, spheres);
         compare(&g, &rays).map_err(TestCaseError::fail)?;
     }
 

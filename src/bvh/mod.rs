@@ -300,6 +300,7 @@ impl Bvh {
                     }
                 }
                 let mut work = [traverse::Work::default(); WIDTH];
+                let mut visits = 0;
                 packet::closest(
                     scene,
                     &mut packet_stack,
@@ -307,27 +308,19 @@ impl Bvh {
                     active,
                     &mut best,
                     &mut work,
+                    &mut visits,
                 );
-                for (lane, (c, w)) in best.iter().zip(&work).enumerate() {
-                    let i = start + lane;
-                    if i >= n {
-                        break;
-                    }
+                let end = (start + WIDTH).min(n);
+                for (i, c) in (start..end).zip(&best) {
                     if c.prim != crate::ray::NO_HIT {
                         hits.t[i] = c.t;
                         hits.prim[i] = c.prim;
                         hits.u[i] = c.u;
                         hits.v[i] = c.v;
                     }
-                    // As on the single-ray path: one node (the scene box)
-                    // for rays it culled, none for rays that cannot hit.
-                    nodes += if active & (1 << lane) != 0 {
-                        w.nodes as u64
-                    } else {
-                        u64::from(candidates & (1 << lane) == 0)
-                    };
-                    prims += w.prims as u64;
                 }
+                nodes += packet_nodes(visits, candidates, end - start);
+                prims += work.iter().map(|w| w.prims as u64).sum::<u64>();
                 continue;
             }
             for i in start..(start + WIDTH).min(n) {
@@ -395,18 +388,21 @@ impl Bvh {
                     rays.t_max.get(start + lane).copied().unwrap_or(0.0)
                 });
                 let mut work = [traverse::Work::default(); WIDTH];
-                let hit = packet::any(scene, &mut packet_stack, &packet, active, &t_max, &mut work);
-                for (lane, w) in work.iter().enumerate().take(end - start) {
-                    occluded[start + lane] = hit & (1 << lane) != 0;
-                    // As on the single-ray path: one node (the scene box)
-                    // for rays it culled, none for rays that cannot hit.
-                    nodes += if active & (1 << lane) != 0 {
-                        w.nodes as u64
-                    } else {
-                        u64::from(candidates & (1 << lane) == 0)
-                    };
-                    prims += w.prims as u64;
+                let mut visits = 0;
+                let hit = packet::any(
+                    scene,
+                    &mut packet_stack,
+                    &packet,
+                    active,
+                    &t_max,
+                    &mut work,
+                    &mut visits,
+                );
+                for (lane, o) in occluded[start..end].iter_mut().enumerate() {
+                    *o = hit & (1 << lane) != 0;
                 }
+                nodes += packet_nodes(visits, candidates, end - start);
+                prims += work.iter().map(|w| w.prims as u64).sum::<u64>();
                 continue;
             }
             #[allow(clippy::needless_range_loop)] // i also indexes the ray arrays
@@ -504,6 +500,15 @@ impl Bvh {
     pub fn triangle_group_count(&self) -> usize {
         self.tri_groups.len()
     }
+}
+
+/// Node visits of one packet's batch slot of `lanes` rays, counted as the
+/// single-ray path counts them: the packet's visits (summed over its
+/// rays), plus one (the scene box) per ray the batch cull rejected; rays
+/// that passed the cull but cannot hit anything count none.
+fn packet_nodes(visits: u64, candidates: u32, lanes: usize) -> u64 {
+    let in_slot = (1u32 << lanes) - 1;
+    visits + u64::from((!candidates & in_slot).count_ones())
 }
 
 fn ray_src(rays: &Rays) -> traverse::Ray8Src<'_> {

@@ -27,7 +27,8 @@ use glam::Vec3;
 use super::flatten::{ChildRef, WideNode};
 use super::sphere::intersect_sphere;
 use super::traverse::{
-    Closest, GAMMA3, Ray8Src, SLACK_ULPS, Scene, T_FAR_MARGIN, Work, leaf_spheres, leaf_triangles,
+    Closest, Ray8Src, SLACK_ULPS, Scene, T_FAR_MARGIN, Work, leaf_spheres, leaf_triangles,
+    slab_test,
 };
 use super::triangle::{RayTri, intersect_group};
 use super::{Lanes, WIDTH};
@@ -119,20 +120,16 @@ impl Packet {
     #[inline(always)]
     fn test(&self, node: &WideNode, slot: usize, cull: Lanes, mask: u32) -> (u32, Lanes) {
         let b = &node.bounds;
-        let mut t_enter = Lanes::ZERO;
-        let mut t_exit = Lanes::splat(f32::INFINITY);
-        #[allow(clippy::needless_range_loop)] // reads four arrays per axis
-        for axis in 0..3 {
-            let n = self.near[axis];
-            let lo = Lanes::splat(b[n][axis].as_array()[slot]);
-            let hi = Lanes::splat(b[1 - n][axis].as_array()[slot]);
-            let t0 = (lo - self.o[axis]) * self.inv[axis];
-            let t1 = (hi - self.o[axis]) * self.inv[axis];
-            t_enter = t0.fast_max(t_enter);
-            t_exit = t1.fast_min(t_exit);
-        }
-        let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(cull);
-        (t_enter.simd_le(t_exit).to_bitmask() & mask, t_enter)
+        let n = self.near;
+        let plane = |corner: usize, axis: usize| Lanes::splat(b[corner][axis].as_array()[slot]);
+        let (m, t_enter) = slab_test(
+            [0, 1, 2].map(|a| plane(n[a], a)),
+            [0, 1, 2].map(|a| plane(1 - n[a], a)),
+            &self.o,
+            &self.inv,
+            cull,
+        );
+        (m & mask, t_enter)
     }
 }
 
@@ -193,8 +190,19 @@ fn descend(
     Some((node.child[nearest], masks[nearest]))
 }
 
+/// The lanes set in `mask`, lowest first.
+#[inline(always)]
+fn lanes(mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::successors((mask != 0).then_some(mask), |m| {
+        let rest = m & (m - 1);
+        (rest != 0).then_some(rest)
+    })
+    .map(|m| m.trailing_zeros() as usize)
+}
+
 /// Closest hits of the packet's `active` rays. `best` holds each lane's
-/// initial `t_max` (and no hit) and receives the results.
+/// initial `t_max` (and no hit) and receives the results; `work` the
+/// primitives each ray tested, `visits` the node visits summed over rays.
 pub(crate) fn closest(
     scene: &Scene,
     stack: &mut PacketStack,
@@ -202,6 +210,7 @@ pub(crate) fn closest(
     active: u32,
     best: &mut [Closest; WIDTH],
     work: &mut [Work; WIDTH],
+    visits: &mut u64,
 ) {
     let mut tri: [Option<RayTri>; WIDTH] = [None; WIDTH];
     let mut t_best = Lanes::from(best.map(|b| b.t));
@@ -211,21 +220,14 @@ pub(crate) fn closest(
         let (child, mask) = current;
         if !child.is_leaf() {
             let node = &scene.nodes[child.index()];
-            let mut m = mask;
-            while m != 0 {
-                work[m.trailing_zeros() as usize].nodes += 1;
-                m &= m - 1;
-            }
+            *visits += u64::from(mask.count_ones());
             if let Some(next) = descend(packet, node, mask, packet.cull(t_best), stack) {
                 current = next;
                 continue;
             }
         } else {
             let (first, count) = (child.index(), child.count());
-            let mut m = mask;
-            while m != 0 {
-                let i = m.trailing_zeros() as usize;
-                m &= m - 1;
+            for i in lanes(mask) {
                 let (o, d) = (packet.org[i], packet.dir[i]);
                 if child.is_sphere() {
                     leaf_spheres(
@@ -263,7 +265,7 @@ pub(crate) fn closest(
 }
 
 /// Any-hit test of the packet's `active` rays (each up to its `t_max`);
-/// returns the mask of occluded rays.
+/// returns the mask of occluded rays. Work is counted as in [`closest`].
 pub(crate) fn any(
     scene: &Scene,
     stack: &mut PacketStack,
@@ -271,6 +273,7 @@ pub(crate) fn any(
     active: u32,
     t_max: &[f32; WIDTH],
     work: &mut [Work; WIDTH],
+    visits: &mut u64,
 ) -> u32 {
     let mut tri: [Option<RayTri>; WIDTH] = [None; WIDTH];
     let cull = packet.cull(Lanes::from(*t_max));
@@ -282,21 +285,14 @@ pub(crate) fn any(
         let (child, mask) = current;
         if !child.is_leaf() {
             let node = &scene.nodes[child.index()];
-            let mut m = mask;
-            while m != 0 {
-                work[m.trailing_zeros() as usize].nodes += 1;
-                m &= m - 1;
-            }
+            *visits += u64::from(mask.count_ones());
             if let Some(next) = descend(packet, node, mask, cull, stack) {
                 current = next;
                 continue;
             }
         } else {
             let (first, count) = (child.index(), child.count());
-            let mut m = mask;
-            while m != 0 {
-                let i = m.trailing_zeros() as usize;
-                m &= m - 1;
+            for i in lanes(mask) {
                 let (o, d) = (packet.org[i], packet.dir[i]);
                 let hit = if child.is_sphere() {
                     scene.spheres[first..first + count].iter().any(|s| {

@@ -115,22 +115,43 @@ impl RayBox {
     #[inline(always)]
     fn test(&self, node: &WideNode, t_far: f32) -> (u32, Lanes) {
         let b = &node.bounds;
-        let mut t_enter = Lanes::ZERO;
-        let mut t_exit = Lanes::splat(f32::INFINITY);
-        #[allow(clippy::needless_range_loop)] // reads four arrays per axis
-        for axis in 0..3 {
-            let n = self.near[axis];
-            let t0 = (b[n][axis] - self.o[axis]) * self.inv[axis];
-            let t1 = (b[1 - n][axis] - self.o[axis]) * self.inv[axis];
-            // Candidate first: a NaN candidate (origin on the plane, zero
-            // direction) leaves the running bound unchanged.
-            t_enter = t0.fast_max(t_enter);
-            t_exit = t1.fast_min(t_exit);
-        }
-        let t_exit =
-            (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(Lanes::splat(self.cull(t_far)));
-        (t_enter.simd_le(t_exit).to_bitmask(), t_enter)
+        let n = self.near;
+        slab_test(
+            [b[n[0]][0], b[n[1]][1], b[n[2]][2]],
+            [b[1 - n[0]][0], b[1 - n[1]][1], b[1 - n[2]][2]],
+            &self.o,
+            &self.inv,
+            Lanes::splat(self.cull(t_far)),
+        )
     }
+}
+
+/// The slab test behind every box query — one ray against a node's
+/// children, a packet's rays against one child, a batch's rays against the
+/// scene box — so all of them make the same decision for the same ray and
+/// box: entry and exit distances from the `near` and `far` planes of each
+/// axis, the exit widened by 1 + 2γ₃ (Ize) and capped at `cull`. Returns
+/// the mask of lanes entered within `[0, cull]` and their entry distances.
+#[inline(always)]
+pub(crate) fn slab_test(
+    near: [Lanes; 3],
+    far: [Lanes; 3],
+    o: &[Lanes; 3],
+    inv: &[Lanes; 3],
+    cull: Lanes,
+) -> (u32, Lanes) {
+    let mut t_enter = Lanes::ZERO;
+    let mut t_exit = Lanes::splat(f32::INFINITY);
+    for axis in 0..3 {
+        let t0 = (near[axis] - o[axis]) * inv[axis];
+        let t1 = (far[axis] - o[axis]) * inv[axis];
+        // Candidate first: a NaN candidate (origin on the plane, zero
+        // direction) leaves the running bound unchanged.
+        t_enter = t0.fast_max(t_enter);
+        t_exit = t1.fast_min(t_exit);
+    }
+    let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(cull);
+    (t_enter.simd_le(t_exit).to_bitmask(), t_enter)
 }
 
 /// Which of the (up to) [`WIDTH`] rays `start..` of `rays` may hit the box
@@ -147,29 +168,23 @@ pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start
     let end = (start + WIDTH).min(rays.t_max.len());
     let load = |v: &[f32]| Lanes::from(&v[start..end]);
     let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
-    let mut t_enter = Lanes::ZERO;
-    let mut t_exit = Lanes::splat(f32::INFINITY);
-    let mut min_inv = Lanes::splat(f32::INFINITY);
-    for axis in 0..3 {
-        let inv = Lanes::ONE / load(rays.dir[axis]);
-        min_inv = inv.abs().fast_min(min_inv);
-        // Near plane per lane by the sign of the direction, exactly as the
-        // per-ray test picks it (sorting the two distances would mishandle
-        // the NaN of a ray lying in a face plane).
-        let positive = inv.simd_ge(Lanes::ZERO);
-        let (lo, hi) = (Lanes::splat(bounds[0][axis]), Lanes::splat(bounds[1][axis]));
-        let t0 = (positive.select(lo, hi) - o[axis]) * inv;
-        let t1 = (positive.select(hi, lo) - o[axis]) * inv;
-        t_enter = t0.fast_max(t_enter);
-        t_exit = t1.fast_min(t_exit);
-    }
+    let inv = [0, 1, 2].map(|axis| Lanes::ONE / load(rays.dir[axis]));
+    let min_inv = inv
+        .iter()
+        .fold(Lanes::splat(f32::INFINITY), |m, i| i.abs().fast_min(m));
+    // Near plane per lane by the sign of the direction, exactly as the
+    // per-ray test picks it (sorting the two distances would mishandle the
+    // NaN of a ray lying in a face plane).
+    let positive = inv.map(|i| i.simd_ge(Lanes::ZERO));
+    let (lo, hi) = (bounds[0].map(Lanes::splat), bounds[1].map(Lanes::splat));
+    let near = [0, 1, 2].map(|a| positive[a].select(lo[a], hi[a]));
+    let far = [0, 1, 2].map(|a| positive[a].select(hi[a], lo[a]));
     // Cull distance with the slack of `RayBox::cull`, lane by lane.
     // Same operations in the same order as `cull_slack`.
     let max_abs_o = o[0].abs().fast_max(o[1].abs()).fast_max(o[2].abs());
     let slack = Lanes::splat(SLACK_ULPS) * (Lanes::splat(extent) + max_abs_o) * min_inv;
     let t_cull = load(rays.t_max) * Lanes::splat(T_FAR_MARGIN) + slack;
-    let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(t_cull);
-    t_enter.simd_le(t_exit).to_bitmask() & ((1u32 << (end - start)) - 1)
+    slab_test(near, far, &o, &inv, t_cull).0 & ((1u32 << (end - start)) - 1)
 }
 
 /// The component arrays of a ray batch, as [`may_hit`] reads them.
