@@ -304,7 +304,9 @@ pub(crate) fn leaf_spheres(
 
 /// Sorts the children of `node` hit by the ray (`mask`, entry distances
 /// `t_enter`) by distance, pushes all but the nearest far-to-near and
-/// returns the nearest. An insertion sort: rarely more than 2-3 are hit.
+/// returns the nearest. Most nodes are entered with one or two children
+/// hit, which take a short path; more are insertion-sorted. Equal
+/// distances are visited in descending slot order on every path.
 #[inline(always)]
 fn push_children(
     node: &WideNode,
@@ -313,7 +315,26 @@ fn push_children(
     stack: &mut Stack,
     sp: &mut usize,
 ) -> ChildRef {
+    let first = mask.trailing_zeros() as usize;
+    let rest = mask & (mask - 1);
+    if rest == 0 {
+        return node.child[first];
+    }
     let t_enter = t_enter.to_array();
+    if rest & (rest - 1) == 0 {
+        let second = rest.trailing_zeros() as usize;
+        let (near, far) = if t_enter[first] < t_enter[second] {
+            (first, second)
+        } else {
+            (second, first)
+        };
+        stack[*sp] = Entry {
+            child: node.child[far].0,
+            t: t_enter[far],
+        };
+        *sp += 1;
+        return node.child[near];
+    }
     let mut hits = [Entry::default(); WIDTH];
     let mut n = 0;
     while mask != 0 {

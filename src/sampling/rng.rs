@@ -13,30 +13,136 @@
 //! stay unbiased. One-dimensional draws (roulette, picking a triangle) are
 //! independent hashes of a counter.
 
+use wide::{f32x8, i32x8, u32x8};
+
+/// The integer operations the sampler's hashes are made of, for one stream
+/// (`u32`) or eight at once (`u32x8`). Every hash below is written once,
+/// generically, so the batched draws ([`VertexDraws`]) are bit for bit the
+/// scalar ones. Arithmetic wraps.
+trait Word: Copy {
+    fn splat(c: u32) -> Self;
+    fn add(self, rhs: Self) -> Self;
+    fn mul(self, rhs: Self) -> Self;
+    fn xor(self, rhs: Self) -> Self;
+    fn and(self, rhs: Self) -> Self;
+    fn shr(self, bits: u32) -> Self;
+    fn shl(self, bits: u32) -> Self;
+    fn reverse_bits(self) -> Self;
+    /// `self ^= self * c`, the step of the Laine–Karras permutation.
+    #[inline(always)]
+    fn xor_mul(self, c: u32) -> Self {
+        self.xor(self.mul(Self::splat(c)))
+    }
+}
+
+impl Word for u32 {
+    #[inline(always)]
+    fn splat(c: u32) -> Self {
+        c
+    }
+    #[inline(always)]
+    fn add(self, rhs: Self) -> Self {
+        self.wrapping_add(rhs)
+    }
+    #[inline(always)]
+    fn mul(self, rhs: Self) -> Self {
+        self.wrapping_mul(rhs)
+    }
+    #[inline(always)]
+    fn xor(self, rhs: Self) -> Self {
+        self ^ rhs
+    }
+    #[inline(always)]
+    fn and(self, rhs: Self) -> Self {
+        self & rhs
+    }
+    #[inline(always)]
+    fn shr(self, bits: u32) -> Self {
+        self >> bits
+    }
+    #[inline(always)]
+    fn shl(self, bits: u32) -> Self {
+        self << bits
+    }
+    #[inline(always)]
+    fn reverse_bits(self) -> Self {
+        u32::reverse_bits(self)
+    }
+}
+
+impl Word for u32x8 {
+    #[inline(always)]
+    fn splat(c: u32) -> Self {
+        u32x8::splat(c)
+    }
+    #[inline(always)]
+    fn add(self, rhs: Self) -> Self {
+        self + rhs
+    }
+    #[inline(always)]
+    fn mul(self, rhs: Self) -> Self {
+        self * rhs
+    }
+    #[inline(always)]
+    fn xor(self, rhs: Self) -> Self {
+        self ^ rhs
+    }
+    #[inline(always)]
+    fn and(self, rhs: Self) -> Self {
+        self & rhs
+    }
+    #[inline(always)]
+    fn shr(self, bits: u32) -> Self {
+        self >> bits
+    }
+    #[inline(always)]
+    fn shl(self, bits: u32) -> Self {
+        self << bits
+    }
+    /// Swaps ever smaller halves: 16-bit, 8-bit, … 1-bit fields.
+    #[inline(always)]
+    fn reverse_bits(self) -> Self {
+        let mut x = (self >> 16) | (self << 16);
+        for (bits, mask) in [
+            (8, 0x00ff_00ffu32),
+            (4, 0x0f0f_0f0f),
+            (2, 0x3333_3333),
+            (1, 0x5555_5555),
+        ] {
+            let m = u32x8::splat(mask);
+            x = ((x >> bits) & m) | ((x & m) << bits);
+        }
+        x
+    }
+}
+
 /// A 32-bit integer hash with good avalanche (Wellons' `lowbias32`).
 #[inline]
-pub fn hash32(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x21f0_aaad);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x735a_2d97);
-    x ^= x >> 15;
-    x
+pub fn hash32(x: u32) -> u32 {
+    hash(x)
+}
+
+#[inline(always)]
+fn hash<W: Word>(mut x: W) -> W {
+    x = x.xor(x.shr(16));
+    x = x.mul(W::splat(0x21f0_aaad));
+    x = x.xor(x.shr(15));
+    x = x.mul(W::splat(0x735a_2d97));
+    x.xor(x.shr(15))
+}
+
+/// One round of [`hash_words`]: folds word `w` into the running hash `h`.
+#[inline(always)]
+fn hash_combine<W: Word>(h: W, w: W) -> W {
+    hash(h.xor(w.add(W::splat(0x7f4a_7c15)).add(h.shl(6)).add(h.shr(2))))
 }
 
 /// Hash of several words, order-sensitive.
 #[inline]
 pub fn hash_words(words: &[u32]) -> u32 {
-    let mut h = 0x9e37_79b9u32;
-    for &w in words {
-        h = hash32(
-            h ^ w
-                .wrapping_add(0x7f4a_7c15)
-                .wrapping_add(h << 6)
-                .wrapping_add(h >> 2),
-        );
-    }
-    h
+    words
+        .iter()
+        .fold(0x9e37_79b9u32, |h, &w| hash_combine(h, w))
 }
 
 /// Maps 32 random bits to a float in [0, 1).
@@ -46,18 +152,25 @@ pub fn to_unit_float(bits: u32) -> f32 {
     (bits >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
+/// [`to_unit_float`] for eight lanes (exact conversions, so the same values).
+#[inline(always)]
+fn to_unit_floats(bits: u32x8) -> f32x8 {
+    let top: u32x8 = bits >> 8u32;
+    let top = i32x8::new(top.to_array().map(|b| b as i32));
+    top.round_float() * f32x8::splat(1.0 / 16_777_216.0)
+}
+
 /// The Laine–Karras permutation: each output bit depends only on the same
 /// and lower input bits, so applied to a bit-reversed value it is a nested
 /// uniform (Owen) scramble (Burley, "Practical Hash-based Owen
 /// Scrambling", 2020).
-#[inline]
-fn laine_karras(mut x: u32, seed: u32) -> u32 {
-    x = x.wrapping_add(seed);
-    x ^= x.wrapping_mul(0x6c50_b47c);
-    x ^= x.wrapping_mul(0xb82f_1e52);
-    x ^= x.wrapping_mul(0xc7af_e638);
-    x ^= x.wrapping_mul(0x8d22_f6e6);
-    x
+#[inline(always)]
+fn laine_karras<W: Word>(x: W, seed: W) -> W {
+    x.add(seed)
+        .xor_mul(0x6c50_b47c)
+        .xor_mul(0xb82f_1e52)
+        .xor_mul(0xc7af_e638)
+        .xor_mul(0x8d22_f6e6)
 }
 
 /// The first two Sobol dimensions of point `i`, *bit-reversed*: the van der
@@ -70,15 +183,54 @@ fn laine_karras(mut x: u32, seed: u32) -> u32 {
 /// P(1 + z) for P(z) = Σ bit_k(i)·z^k. Since (1 + z)^(2^m) = 1 + z^(2^m),
 /// that substitution is five shift-xor butterflies instead of a loop over
 /// the bits of `i` (which are all set after index scrambling).
-#[inline]
-fn sobol_2d_reversed(i: u32) -> (u32, u32) {
+#[inline(always)]
+fn sobol_2d_reversed<W: Word>(i: W) -> (W, W) {
     let mut p = i;
-    p ^= (p >> 1) & 0x5555_5555;
-    p ^= (p >> 2) & 0x3333_3333;
-    p ^= (p >> 4) & 0x0f0f_0f0f;
-    p ^= (p >> 8) & 0x00ff_00ff;
-    p ^= (p >> 16) & 0x0000_ffff;
+    for (bits, mask) in [
+        (1, 0x5555_5555u32),
+        (2, 0x3333_3333),
+        (4, 0x0f0f_0f0f),
+        (8, 0x00ff_00ff),
+        (16, 0x0000_ffff),
+    ] {
+        p = p.xor(p.shr(bits).and(W::splat(mask)));
+    }
     (i, p)
+}
+
+/// The scrambles of one dimension pair of one pixel.
+#[derive(Clone, Copy, Debug)]
+struct PairSeeds<W> {
+    /// Index shuffle seed.
+    index: W,
+    /// Scramble seeds of the two coordinates.
+    x: W,
+    y: W,
+}
+
+impl<W: Word> PairSeeds<W> {
+    #[inline(always)]
+    fn new(key: W, pair: W) -> Self {
+        let seed = hash_combine(hash_combine(W::splat(0x9e37_79b9), key), pair);
+        PairSeeds {
+            index: seed,
+            x: hash(seed.xor(W::splat(0x1b87_3593))),
+            y: hash(seed.xor(W::splat(0xcc9e_2d51))),
+        }
+    }
+
+    /// Point `i` of the pair's sequence, as 32 bits per coordinate.
+    #[inline(always)]
+    fn point(&self, i: W) -> (W, W) {
+        // Shuffle: an Owen scramble of the index (reverse, permute, reverse).
+        let index = laine_karras(i.reverse_bits(), self.index).reverse_bits();
+        // Scramble each coordinate in the reversed domain, reverse once.
+        let (x, y) = sobol_2d_reversed(index);
+        (
+            laine_karras(x, self.x).reverse_bits(),
+            laine_karras(y, self.y).reverse_bits(),
+        )
+    }
 }
 
 /// The random numbers of one camera sample of one pixel.
@@ -151,10 +303,8 @@ impl SampleStream {
     /// this is exactly [`next_2d`](Self::next_2d).
     #[inline]
     pub fn next_2d_block(&mut self, count: u32) -> PairBlock {
-        // Blocks are aligned to a power of two so that any `count` keeps the
-        // stratification across samples (a count of 3 uses 3 of every 4).
-        let stride = count.max(1).next_power_of_two();
-        let block = PairBlock::new(self.key, self.pair, self.sample.wrapping_mul(stride), count);
+        let first = self.sample.wrapping_mul(block_stride(count));
+        let block = PairBlock::new(self.key, self.pair, first, count);
         self.pair += 1;
         block
     }
@@ -164,11 +314,7 @@ impl SampleStream {
 /// [`SampleStream::next_2d_block`]); the scrambles are hashed once for all.
 #[derive(Clone, Copy, Debug)]
 pub struct PairBlock {
-    /// Index shuffle seed of the pair.
-    seed: u32,
-    /// Scramble seeds of the two coordinates.
-    seed_x: u32,
-    seed_y: u32,
+    seeds: PairSeeds<u32>,
     /// Index of the block's first point.
     first: u32,
     count: u32,
@@ -177,11 +323,8 @@ pub struct PairBlock {
 impl PairBlock {
     #[inline]
     fn new(key: u32, pair: u32, first: u32, count: u32) -> PairBlock {
-        let seed = hash_words(&[key, pair]);
         PairBlock {
-            seed,
-            seed_x: hash32(seed ^ 0x1b87_3593),
-            seed_y: hash32(seed ^ 0xcc9e_2d51),
+            seeds: PairSeeds::new(key, pair),
             first,
             count,
         }
@@ -191,15 +334,90 @@ impl PairBlock {
     #[inline]
     pub fn point(&self, j: u32) -> (f32, f32) {
         debug_assert!(j < self.count.max(1));
-        // Shuffle: an Owen scramble of the index (reverse, permute, reverse).
-        let index_reversed = self.first.wrapping_add(j).reverse_bits();
-        let index = laine_karras(index_reversed, self.seed).reverse_bits();
-        // Scramble each coordinate in the reversed domain, reverse once.
-        let (x, y) = sobol_2d_reversed(index);
-        let x = laine_karras(x, self.seed_x).reverse_bits();
-        let y = laine_karras(y, self.seed_y).reverse_bits();
+        let (x, y) = self.seeds.point(self.first.wrapping_add(j));
         (to_unit_float(x), to_unit_float(y))
     }
+}
+
+/// The two-dimensional draws of one path vertex for a whole wave of
+/// streams, computed eight streams at a time.
+///
+/// Scalar, a draw is a chain of ~20 dependent multiplies and shifts that
+/// the shading loop waited for twice per vertex; across streams the same
+/// chain fills vector lanes. Draw `j` of block `b` of stream `i` is exactly
+/// `streams[i].next_2d_block(counts[b]).point(j)` after `b` earlier blocks.
+#[derive(Clone, Debug, Default)]
+pub struct VertexDraws {
+    /// Points per block.
+    counts: Vec<u32>,
+    /// First slot of each block.
+    first_slot: Vec<usize>,
+    /// Streams drawn for.
+    streams: usize,
+    /// Coordinates, slot-major: `u[slot · streams + i]`.
+    u: Vec<f32>,
+    v: Vec<f32>,
+}
+
+impl VertexDraws {
+    /// Draws blocks of `counts[b]` points from the next `counts.len()`
+    /// dimension pairs of every stream, and moves the streams past them.
+    pub fn draw(&mut self, streams: &mut [SampleStream], counts: impl IntoIterator<Item = u32>) {
+        self.counts.clear();
+        self.counts.extend(counts);
+        self.first_slot.clear();
+        let mut slots = 0;
+        for &count in &self.counts {
+            self.first_slot.push(slots);
+            slots += count as usize;
+        }
+        let n = streams.len();
+        self.streams = n;
+        self.u.resize(slots * n, 0.0);
+        self.v.resize(slots * n, 0.0);
+        for (chunk, group) in streams.chunks(8).enumerate() {
+            let start = chunk * 8;
+            let lanes = group.len();
+            let field = |f: fn(&SampleStream) -> u32| {
+                let mut a = [0u32; 8];
+                for (x, s) in a.iter_mut().zip(group) {
+                    *x = f(s);
+                }
+                u32x8::from(a)
+            };
+            let (key, sample, pair) = (field(|s| s.key), field(|s| s.sample), field(|s| s.pair));
+            let mut slot = 0;
+            for (b, &count) in self.counts.iter().enumerate() {
+                let seeds = PairSeeds::new(key, pair + u32x8::splat(b as u32));
+                let first = sample * u32x8::splat(block_stride(count));
+                for j in 0..count {
+                    let (x, y) = seeds.point(first + u32x8::splat(j));
+                    let at = slot * n + start;
+                    self.u[at..at + lanes].copy_from_slice(&to_unit_floats(x).to_array()[..lanes]);
+                    self.v[at..at + lanes].copy_from_slice(&to_unit_floats(y).to_array()[..lanes]);
+                    slot += 1;
+                }
+            }
+        }
+        for s in streams {
+            s.pair += self.counts.len() as u32;
+        }
+    }
+
+    /// Draw `j` of block `b` of stream `i`.
+    #[inline]
+    pub fn point(&self, i: usize, b: usize, j: u32) -> (f32, f32) {
+        debug_assert!(j < self.counts[b] && i < self.streams);
+        let at = (self.first_slot[b] + j as usize) * self.streams + i;
+        (self.u[at], self.v[at])
+    }
+}
+
+/// Blocks are aligned to a power of two so that any count keeps the
+/// stratification across samples (a count of 3 uses 3 of every 4).
+#[inline]
+fn block_stride(count: u32) -> u32 {
+    count.max(1).next_power_of_two()
 }
 
 #[cfg(test)]
@@ -340,6 +558,40 @@ mod tests {
             let (mut a, mut b) = (SampleStream::new(2, 8, s), SampleStream::new(2, 8, s));
             for _ in 0..3 {
                 assert_eq!(a.next_2d(), b.next_2d_block(1).point(0));
+            }
+        }
+    }
+
+    #[test]
+    fn batched_draws_are_the_scalar_draws() {
+        // 13 streams: one full group of eight and a partial one, at
+        // different pairs and samples (large ones, so indices wrap).
+        let counts = [1u32, 4, 3, 1, 16];
+        let mut streams: Vec<SampleStream> = (0..13u32)
+            .map(|i| {
+                let mut s = SampleStream::new(21, 1000 + i, i * 0x1357_9bdf);
+                for _ in 0..i % 3 {
+                    s.next_2d();
+                }
+                s
+            })
+            .collect();
+        let mut expected = streams.clone();
+        let mut draws = VertexDraws::default();
+        for _ in 0..2 {
+            draws.draw(&mut streams, counts);
+            for (i, stream) in expected.iter_mut().enumerate() {
+                for (b, &count) in counts.iter().enumerate() {
+                    let block = stream.next_2d_block(count);
+                    for j in 0..count {
+                        assert_eq!(
+                            draws.point(i, b, j),
+                            block.point(j),
+                            "stream {i} block {b} draw {j}"
+                        );
+                    }
+                }
+                assert_eq!(stream.pair, streams[i].pair);
             }
         }
     }

@@ -31,6 +31,7 @@ use crate::integrator::bsdf::{self, Surface};
 use crate::integrator::lights::LightSet;
 use crate::integrator::{Settings, View};
 use crate::ray::Hits;
+use crate::sampling::rng::VertexDraws;
 use crate::scene::Scene;
 
 use generate::{CameraRays, PassQueue};
@@ -93,6 +94,7 @@ pub struct Renderer<'a> {
 struct Scratch {
     paths: Paths,
     hits: Hits,
+    draws: VertexDraws,
     shadow: ShadowRays,
     probes: ShadowRays,
     probe_hits: Hits,
@@ -197,6 +199,7 @@ impl<'a> Renderer<'a> {
         let Scratch {
             paths,
             hits,
+            draws,
             shadow,
             probes,
             probe_hits,
@@ -250,7 +253,7 @@ impl<'a> Renderer<'a> {
                 let t = Instant::now();
                 shadow.clear();
                 probes.clear();
-                shade::shade(&inputs, hits, paths, shadow, probes);
+                shade::shade(&inputs, hits, paths, draws, shadow, probes);
                 stats.shade.record(paths.len(), t);
 
                 if !shadow.is_empty() {

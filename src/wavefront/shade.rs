@@ -12,6 +12,7 @@ use crate::integrator::bsdf::Surface;
 use crate::integrator::lights::LightSet;
 use crate::integrator::{Settings, View};
 use crate::ray::{Hits, gamma, offset_by};
+use crate::sampling::rng::VertexDraws;
 use crate::sampling::warp;
 use crate::scene::{Geometry, Primitive};
 
@@ -111,16 +112,45 @@ fn surface_point(
     }
 }
 
+/// The blocks of two-dimensional draws every path vertex takes, in
+/// order: [`BSDF_BLOCK`] for the next direction, then one block of `-l`
+/// points per area-like light (delta lights need none) — or, with `-H`,
+/// one block for all hemisphere probes. A fixed layout lets the whole
+/// wave's draws be made up front, eight paths at a time, and gives every
+/// vertex depth the same dimension pairs in every sample of a pixel, so
+/// each draw is stratified across the pixel's samples.
+fn vertex_blocks<'a>(inputs: &ShadeInputs<'a>) -> impl Iterator<Item = u32> + 'a {
+    let settings = inputs.settings;
+    let sources = &inputs.lights.sources;
+    let probes = settings
+        .hemisphere
+        .then(|| sources.len().max(1) as u32 * settings.light_samples);
+    let lights = sources
+        .iter()
+        .filter(move |light| !settings.hemisphere && !light.is_delta())
+        .map(move |_| settings.light_samples);
+    std::iter::once(1).chain(probes).chain(lights)
+}
+
+/// Block of [`vertex_blocks`] that samples the BSDF.
+const BSDF_BLOCK: usize = 0;
+/// First block of light (or hemisphere-probe) samples.
+const FIRST_LIGHT_BLOCK: usize = 1;
+
 /// Shades every path of the wave. Paths that missed or ended are marked
 /// not alive; live ones get their next ray.
 pub fn shade(
     inputs: &ShadeInputs,
     hits: &Hits,
     paths: &mut Paths,
+    draws: &mut VertexDraws,
     shadow: &mut ShadowRays,
     probes: &mut ShadowRays,
 ) {
     let settings = inputs.settings;
+    if settings.view == View::Path {
+        draws.draw(&mut paths.stream, vertex_blocks(inputs));
+    }
     for i in 0..paths.len() {
         let dir = paths.rays.direction(i);
         if !hits.is_hit(i) {
@@ -174,13 +204,13 @@ pub fn shade(
                 if depth < settings.max_depth && settings.counts_bounce(depth + 1) {
                     let beta = paths.throughput[i] * f;
                     if settings.hemisphere {
-                        direct_hemisphere(inputs, paths, i, p_out, sp.ns, beta, probes);
+                        direct_hemisphere(inputs, draws, i, p_out, sp.ns, beta, probes);
                     } else {
-                        direct_lights(inputs, paths, i, sp.p, p_out, sp.ns, beta, shadow);
+                        direct_lights(inputs, paths, draws, i, (sp.p, p_out, sp.ns), beta, shadow);
                     }
                 }
                 paths.alive[i] = depth + 1 < settings.max_depth
-                    && continue_path(settings, paths, i, p_out, sp.ns, albedo);
+                    && continue_path(settings, paths, draws, i, p_out, sp.ns, albedo);
             }
         }
     }
@@ -206,30 +236,28 @@ fn on_miss(inputs: &ShadeInputs, paths: &mut Paths, i: usize, dir: Vec3) {
 /// only the shadow rays start from the offset point `p_out`, so the offset
 /// (large where the error bound is: 1 on a 2e6-wide ground plane) cannot
 /// bias the lighting.
-#[allow(clippy::too_many_arguments)]
 fn direct_lights(
     inputs: &ShadeInputs,
     paths: &mut Paths,
+    draws: &VertexDraws,
     i: usize,
-    p: Vec3,
-    p_out: Vec3,
-    n: Vec3,
+    (p, p_out, n): (Vec3, Vec3, Vec3),
     beta: Vec3,
     shadow: &mut ShadowRays,
 ) {
+    let mut block = FIRST_LIGHT_BLOCK;
     for light in &inputs.lights.sources {
-        let count = if light.is_delta() {
-            1
+        // The `-l` samples of one light come from one stratified block.
+        let (count, this_block) = if light.is_delta() {
+            (1, None)
         } else {
-            inputs.settings.light_samples
+            block += 1;
+            (inputs.settings.light_samples, Some(block - 1))
         };
         let inv_count = 1.0 / count as f32;
-        // Draw only the random numbers this light uses; the `-l` samples
-        // of one light come from one stratified block.
-        let block = (!light.is_delta()).then(|| paths.stream[i].next_2d_block(count));
         for j in 0..count {
-            let (u, v) = match &block {
-                Some(block) => block.point(j),
+            let (u, v) = match this_block {
+                Some(b) => draws.point(i, b, j),
                 None => (0.5, 0.5),
             };
             let w = if light.uses_w() {
@@ -252,7 +280,7 @@ fn direct_lights(
 /// count the emission they find. N = lights × `-l` directions, pdf = 1/2π.
 fn direct_hemisphere(
     inputs: &ShadeInputs,
-    paths: &mut Paths,
+    draws: &VertexDraws,
     i: usize,
     p: Vec3,
     n: Vec3,
@@ -261,9 +289,8 @@ fn direct_hemisphere(
 ) {
     let count = inputs.lights.sources.len().max(1) as u32 * inputs.settings.light_samples;
     let scale = 2.0 * std::f32::consts::PI / count as f32;
-    let block = paths.stream[i].next_2d_block(count);
     for j in 0..count {
-        let (u, v) = block.point(j);
+        let (u, v) = draws.point(i, FIRST_LIGHT_BLOCK, j);
         let local = warp::uniform_hemisphere(u, v);
         let d = warp::to_world(local, n);
         probes.push(i, p, d, f32::INFINITY, beta * (local.z * scale));
@@ -280,6 +307,7 @@ fn direct_hemisphere(
 fn continue_path(
     settings: &Settings,
     paths: &mut Paths,
+    draws: &VertexDraws,
     i: usize,
     p: Vec3,
     n: Vec3,
@@ -296,7 +324,7 @@ fn continue_path(
     if throughput.max_element() <= 0.0 || !throughput.is_finite() {
         return false;
     }
-    let (u, v) = paths.stream[i].next_2d();
+    let (u, v) = draws.point(i, BSDF_BLOCK, 0);
     let d = warp::to_world(warp::cosine_hemisphere(u, v), n);
     paths.throughput[i] = throughput;
     paths.depth[i] += 1;
