@@ -104,9 +104,12 @@ impl RayTri {
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
+        // One division: the shear need not be the correctly rounded d/dz,
+        // only the same for every triangle the ray is tested against.
+        let inv_dz = 1.0 / d[kz];
         RayTri {
             k: [kx, ky, kz],
-            s: [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]],
+            s: [d[kx] * inv_dz, d[ky] * inv_dz, inv_dz],
             o: [o[kx], o[ky], o[kz]],
         }
     }

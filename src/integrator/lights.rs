@@ -214,9 +214,9 @@ fn sample_sphere(
         };
         let cos_theta = 1.0 - u * one_minus_cos_max;
         let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-        let phi = 2.0 * std::f32::consts::PI * v;
+        let (c, s) = warp::unit_circle(v);
         let axis = to_center / dist2.sqrt();
-        let local = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta);
+        let local = Vec3::new(sin_theta * c, sin_theta * s, cos_theta);
         (
             warp::to_world(local, axis),
             1.0 / (2.0 * std::f32::consts::PI * one_minus_cos_max),
@@ -224,9 +224,9 @@ fn sample_sphere(
     } else {
         let z = 1.0 - 2.0 * u;
         let r = (1.0 - z * z).max(0.0).sqrt();
-        let phi = 2.0 * std::f32::consts::PI * v;
+        let (c, s) = warp::unit_circle(v);
         (
-            Vec3::new(r * phi.cos(), r * phi.sin(), z),
+            Vec3::new(r * c, r * s, z),
             1.0 / (4.0 * std::f32::consts::PI),
         )
     };
