@@ -18,20 +18,23 @@ use wide::{f32x8, i32x8, u32x8};
 /// The integer operations the sampler's hashes are made of, for one stream
 /// (`u32`) or eight at once (`u32x8`). Every hash below is written once,
 /// generically, so the batched draws ([`VertexDraws`]) are bit for bit the
-/// scalar ones. Arithmetic wraps.
-trait Word: Copy {
+/// scalar ones. Bit operations are the types' own operators; arithmetic
+/// wraps (`u32x8` always does, `u32` by its `wrapping_*` methods).
+trait Word:
+    Copy
+    + std::ops::BitXor<Output = Self>
+    + std::ops::BitAnd<Output = Self>
+    + std::ops::Shr<u32, Output = Self>
+    + std::ops::Shl<u32, Output = Self>
+{
     fn splat(c: u32) -> Self;
     fn add(self, rhs: Self) -> Self;
     fn mul(self, rhs: Self) -> Self;
-    fn xor(self, rhs: Self) -> Self;
-    fn and(self, rhs: Self) -> Self;
-    fn shr(self, bits: u32) -> Self;
-    fn shl(self, bits: u32) -> Self;
     fn reverse_bits(self) -> Self;
     /// `self ^= self * c`, the step of the Laine–Karras permutation.
     #[inline(always)]
     fn xor_mul(self, c: u32) -> Self {
-        self.xor(self.mul(Self::splat(c)))
+        self ^ self.mul(Self::splat(c))
     }
 }
 
@@ -47,22 +50,6 @@ impl Word for u32 {
     #[inline(always)]
     fn mul(self, rhs: Self) -> Self {
         self.wrapping_mul(rhs)
-    }
-    #[inline(always)]
-    fn xor(self, rhs: Self) -> Self {
-        self ^ rhs
-    }
-    #[inline(always)]
-    fn and(self, rhs: Self) -> Self {
-        self & rhs
-    }
-    #[inline(always)]
-    fn shr(self, bits: u32) -> Self {
-        self >> bits
-    }
-    #[inline(always)]
-    fn shl(self, bits: u32) -> Self {
-        self << bits
     }
     #[inline(always)]
     fn reverse_bits(self) -> Self {
@@ -82,22 +69,6 @@ impl Word for u32x8 {
     #[inline(always)]
     fn mul(self, rhs: Self) -> Self {
         self * rhs
-    }
-    #[inline(always)]
-    fn xor(self, rhs: Self) -> Self {
-        self ^ rhs
-    }
-    #[inline(always)]
-    fn and(self, rhs: Self) -> Self {
-        self & rhs
-    }
-    #[inline(always)]
-    fn shr(self, bits: u32) -> Self {
-        self >> bits
-    }
-    #[inline(always)]
-    fn shl(self, bits: u32) -> Self {
-        self << bits
     }
     /// Swaps ever smaller halves: 16-bit, 8-bit, … 1-bit fields.
     #[inline(always)]
@@ -124,17 +95,17 @@ pub fn hash32(x: u32) -> u32 {
 
 #[inline(always)]
 fn hash<W: Word>(mut x: W) -> W {
-    x = x.xor(x.shr(16));
+    x = x ^ (x >> 16);
     x = x.mul(W::splat(0x21f0_aaad));
-    x = x.xor(x.shr(15));
+    x = x ^ (x >> 15);
     x = x.mul(W::splat(0x735a_2d97));
-    x.xor(x.shr(15))
+    x ^ (x >> 15)
 }
 
 /// One round of [`hash_words`]: folds word `w` into the running hash `h`.
 #[inline(always)]
 fn hash_combine<W: Word>(h: W, w: W) -> W {
-    hash(h.xor(w.add(W::splat(0x7f4a_7c15)).add(h.shl(6)).add(h.shr(2))))
+    hash(h ^ w.add(W::splat(0x7f4a_7c15)).add(h << 6).add(h >> 2))
 }
 
 /// Hash of several words, order-sensitive.
@@ -193,7 +164,7 @@ fn sobol_2d_reversed<W: Word>(i: W) -> (W, W) {
         (8, 0x00ff_00ff),
         (16, 0x0000_ffff),
     ] {
-        p = p.xor(p.shr(bits).and(W::splat(mask)));
+        p = p ^ ((p >> bits) & W::splat(mask));
     }
     (i, p)
 }
@@ -214,8 +185,8 @@ impl<W: Word> PairSeeds<W> {
         let seed = hash_combine(hash_combine(W::splat(0x9e37_79b9), key), pair);
         PairSeeds {
             index: seed,
-            x: hash(seed.xor(W::splat(0x1b87_3593))),
-            y: hash(seed.xor(W::splat(0xcc9e_2d51))),
+            x: hash(seed ^ W::splat(0x1b87_3593)),
+            y: hash(seed ^ W::splat(0xcc9e_2d51)),
         }
     }
 
