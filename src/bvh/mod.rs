@@ -291,7 +291,7 @@ impl Bvh {
                 (None, _) => 0,
             };
             if let (Some(scene), None) = (&scene, &cost)
-                && let Some((packet, active)) = self.packet(scene, rays, &src, start, candidates)
+                && let Some((packet, active)) = self.packet(scene, &src, start, candidates)
             {
                 let mut best = [traverse::Closest::none(0.0); WIDTH];
                 for (lane, b) in best.iter_mut().enumerate() {
@@ -381,7 +381,7 @@ impl Bvh {
                 (None, _) => 0,
             };
             if let Some(scene) = &scene
-                && let Some((packet, active)) = self.packet(scene, rays, &src, start, candidates)
+                && let Some((packet, active)) = self.packet(scene, &src, start, candidates)
             {
                 let end = (start + WIDTH).min(n);
                 let t_max: [f32; WIDTH] = std::array::from_fn(|lane| {
@@ -444,28 +444,15 @@ impl Bvh {
     fn packet(
         &self,
         scene: &traverse::Scene,
-        rays: &Rays,
         src: &traverse::Ray8Src,
         start: usize,
         candidates: u32,
     ) -> Option<(packet::Packet, u32)> {
+        // The cull has already dropped rays that cannot hit anything.
         if self.accel == Accel::None || candidates.count_ones() < 2 {
             return None;
         }
-        let mut active = 0u32;
-        let mut c = candidates;
-        while c != 0 {
-            let lane = c.trailing_zeros() as usize;
-            c &= c - 1;
-            let i = start + lane;
-            if !traverse::never_hits(rays.origin(i), rays.direction(i), rays.t_max[i]) {
-                active |= 1 << lane;
-            }
-        }
-        if active.count_ones() < 2 {
-            return None;
-        }
-        packet::Packet::new(src, start, active, scene.extent).map(|p| (p, active))
+        packet::Packet::new(src, start, candidates, scene.extent).map(|p| (p, candidates))
     }
 
     /// Which structure this is.

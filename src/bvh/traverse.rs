@@ -157,7 +157,9 @@ pub(crate) fn slab_test(
 }
 
 /// Which of the (up to) [`WIDTH`] rays `start..` of `rays` may hit the box
-/// `bounds` (min, max corner) within `[0, t_max]`, as a bit mask.
+/// `bounds` (min, max corner) within `[0, t_max]`, as a bit mask. Rays
+/// that cannot hit anything at all ([`never_hits`]) are never in it, so
+/// the traversals need not check them again.
 ///
 /// This is the slab test of [`RayBox::test`] run across rays instead of
 /// across boxes, straight from the structure-of-arrays batch: a cheap
@@ -170,7 +172,22 @@ pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start
     let end = (start + WIDTH).min(rays.t_max.len());
     let load = |v: &[f32]| Lanes::from(&v[start..end]);
     let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
-    let inv = [0, 1, 2].map(|axis| Lanes::ONE / load(rays.dir[axis]));
+    let dir = [load(rays.dir[0]), load(rays.dir[1]), load(rays.dir[2])];
+    let t_max = load(rays.t_max);
+    // `never_hits`, lane by lane: a finite value is below ∞ in magnitude
+    // (NaN compares false), a zero direction is zero on every axis, and an
+    // interval is empty if t_max is NaN or negative.
+    let finite = |v: Lanes| v.abs().simd_lt(Lanes::splat(f32::INFINITY));
+    let zero = |v: Lanes| v.simd_eq(Lanes::ZERO);
+    let valid = finite(o[0])
+        & finite(o[1])
+        & finite(o[2])
+        & finite(dir[0])
+        & finite(dir[1])
+        & finite(dir[2])
+        & !(zero(dir[0]) & zero(dir[1]) & zero(dir[2]))
+        & t_max.simd_ge(Lanes::ZERO);
+    let inv = dir.map(|d| Lanes::ONE / d);
     let min_inv = inv
         .iter()
         .fold(Lanes::splat(f32::INFINITY), |m, i| i.abs().fast_min(m));
@@ -185,8 +202,8 @@ pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start
     // Same operations in the same order as `cull_slack`.
     let max_abs_o = o[0].abs().fast_max(o[1].abs()).fast_max(o[2].abs());
     let slack = Lanes::splat(SLACK_ULPS) * (Lanes::splat(extent) + max_abs_o) * min_inv;
-    let t_cull = load(rays.t_max) * Lanes::splat(T_FAR_MARGIN) + slack;
-    slab_test(near, far, &o, &inv, t_cull).0 & ((1u32 << (end - start)) - 1)
+    let t_cull = t_max * Lanes::splat(T_FAR_MARGIN) + slack;
+    slab_test(near, far, &o, &inv, t_cull).0 & valid.to_bitmask() & ((1u32 << (end - start)) - 1)
 }
 
 /// The component arrays of a ray batch, as [`may_hit`] reads them.
@@ -391,15 +408,9 @@ pub(crate) fn closest(
     t_max: f32,
     work: &mut Work,
 ) -> Closest {
-    let mut best = Closest {
-        t: t_max,
-        prim: NO_HIT,
-        u: 0.0,
-        v: 0.0,
-    };
-    if never_hits(o, d, t_max) {
-        return best;
-    }
+    let mut best = Closest::none(t_max);
+    // The batch cull (`may_hit`) keeps such rays out.
+    debug_assert!(!never_hits(o, d, t_max));
     let rb = RayBox::new(o, d, scene.extent);
     // The triangle test's shear is set up at the first triangle leaf: most
     // camera rays of a typical scene never get that far.
@@ -454,9 +465,8 @@ pub(crate) fn any(
     t_max: f32,
     work: &mut Work,
 ) -> bool {
-    if never_hits(o, d, t_max) {
-        return false;
-    }
+    // The batch cull (`may_hit`) keeps such rays out.
+    debug_assert!(!never_hits(o, d, t_max));
     let rb = RayBox::new(o, d, scene.extent);
     let mut tri: Option<RayTri> = None;
     let mut sp = 0usize;

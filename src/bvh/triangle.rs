@@ -99,8 +99,9 @@ impl RayTri {
         } else {
             2
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
+        // Arrays, not `Vec3` indexing (a match per component).
+        let (d, o) = (d.to_array(), o.to_array());
+        let (mut kx, mut ky) = [(1, 2), (2, 0), (0, 1)][kz];
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }

@@ -42,6 +42,13 @@ pub enum LightSource {
         dim_y: Vec3,
         radiance: Vec3,
         area: f32,
+        /// How far a sampled point may be from the plane of the light's
+        /// two triangles (corners center ± dim/2, rounded): γ₅ of the
+        /// magnitudes that went into both.
+        q_err: f32,
+        /// Largest distance along an axis from any point of the light to its
+        /// corners.
+        extent: f32,
     },
     Hemisphere {
         radiance: Vec3,
@@ -127,16 +134,20 @@ impl LightSource {
                 dim_y,
                 radiance,
                 area,
+                q_err,
+                extent,
             } => {
                 let q = *center + (u - 0.5) * *dim_x + (v - 0.5) * *dim_y;
-                // How far q may be from the plane of the light's two
-                // triangles (corners center ± dim/2, rounded): γ₅ of the
-                // magnitudes that went into both.
-                let q_err =
-                    gamma(5) * (center.abs() + 0.5 * dim_x.abs() + 0.5 * dim_y.abs()).max_element();
-                let extent = (dim_x.abs() + dim_y.abs()).max_element();
                 // One-sided: light leaves toward `normal` only.
-                connect(p, origin, n, (q, q_err, extent), *normal, *area, *radiance)
+                connect(
+                    p,
+                    origin,
+                    n,
+                    (q, *q_err, *extent),
+                    *normal,
+                    *area,
+                    *radiance,
+                )
             }
             LightSource::Hemisphere { radiance } => {
                 // Cosine-weighted about the surface normal; only upward directions see the sky.
@@ -337,6 +348,9 @@ impl LightSet {
                     dim_y,
                     radiance,
                     area: light.area(),
+                    q_err: gamma(5)
+                        * (center.abs() + 0.5 * dim_x.abs() + 0.5 * dim_y.abs()).max_element(),
+                    extent: (dim_x.abs() + dim_y.abs()).max_element(),
                 },
                 Light::Hemisphere { radiance } => {
                     set.sky += radiance;
