@@ -285,9 +285,15 @@ impl Bvh {
         for start in (0..n).step_by(WIDTH) {
             // Rays that miss the scene's bounds skip traversal altogether
             // (counted as one node visit: the box test they did get).
-            let candidates = match (&scene, self.accel) {
-                (_, Accel::None) => u32::MAX,
-                (Some(scene), _) => traverse::may_hit(&self.bounds, scene.extent, &src, start),
+            let cull = match (&scene, self.accel) {
+                (Some(scene), Accel::Sah | Accel::Median) => {
+                    Some(traverse::may_hit(&self.bounds, scene.extent, &src, start))
+                }
+                _ => None,
+            };
+            let candidates = match (&cull, self.accel) {
+                (Some(cull), _) => cull.mask,
+                (None, Accel::None) => u32::MAX,
                 (None, _) => 0,
             };
             if let (Some(scene), None) = (&scene, &cost)
@@ -331,10 +337,14 @@ impl Bvh {
                     let o = rays.origin(i);
                     let d = rays.direction(i);
                     let t_max = rays.t_max[i];
-                    let c = match &scene {
-                        Some(scene) if self.accel != Accel::None => {
-                            traverse::closest(scene, &mut stack, o, d, t_max, &mut work)
-                        }
+                    let c = match (&scene, &cull) {
+                        (Some(scene), Some(cull)) => traverse::closest(
+                            scene,
+                            &mut stack,
+                            (cull, i - start),
+                            (o, d, t_max),
+                            &mut work,
+                        ),
                         _ => traverse::closest_brute(
                             &self.tri_groups,
                             &self.spheres,
@@ -375,9 +385,15 @@ impl Bvh {
         let mut packet_stack = packet::new_packet_stack();
         let src = ray_src(rays);
         for start in (0..n).step_by(WIDTH) {
-            let candidates = match (&scene, self.accel) {
-                (_, Accel::None) => u32::MAX,
-                (Some(scene), _) => traverse::may_hit(&self.bounds, scene.extent, &src, start),
+            let cull = match (&scene, self.accel) {
+                (Some(scene), Accel::Sah | Accel::Median) => {
+                    Some(traverse::may_hit(&self.bounds, scene.extent, &src, start))
+                }
+                _ => None,
+            };
+            let candidates = match (&cull, self.accel) {
+                (Some(cull), _) => cull.mask,
+                (None, Accel::None) => u32::MAX,
                 (None, _) => 0,
             };
             if let Some(scene) = &scene
@@ -414,10 +430,14 @@ impl Bvh {
                     let o = rays.origin(i);
                     let d = rays.direction(i);
                     let t_max = rays.t_max[i];
-                    occluded[i] = match &scene {
-                        Some(scene) if self.accel != Accel::None => {
-                            traverse::any(scene, &mut stack, o, d, t_max, &mut work)
-                        }
+                    occluded[i] = match (&scene, &cull) {
+                        (Some(scene), Some(cull)) => traverse::any(
+                            scene,
+                            &mut stack,
+                            (cull, i - start),
+                            (o, d, t_max),
+                            &mut work,
+                        ),
                         _ => traverse::any_brute(
                             &self.tri_groups,
                             &self.spheres,

@@ -89,7 +89,7 @@ impl Packet {
             };
         }
         let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
-        // Same operations in the same order as `traverse::cull_slack`.
+        // Same operations in the same order as `traverse::may_hit`.
         let min_inv = inv[0].abs().fast_min(inv[1].abs()).fast_min(inv[2].abs());
         let max_abs_o = o[0].abs().fast_max(o[1].abs()).fast_max(o[2].abs());
         let slack = Lanes::splat(SLACK_ULPS) * (Lanes::splat(extent) + max_abs_o) * min_inv;

@@ -58,15 +58,6 @@ pub(crate) const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::E
 pub(crate) const SLACK_ULPS: f32 = 32.0 * f32::EPSILON;
 pub(crate) const T_FAR_MARGIN: f32 = 1.0 + SLACK_ULPS;
 
-/// Absolute part of the cull slack for a ray (see [`SLACK_ULPS`]):
-/// `32ε·(extent + |o|∞)/|d|∞`, with `1/|d|∞` taken as the smallest
-/// `|1/dᵢ|` (the same value, as division is correctly rounded and monotone).
-#[inline(always)]
-fn cull_slack(extent: f32, o: Vec3, inv: [f32; 3]) -> f32 {
-    let min_inv = inv[0].abs().min(inv[1].abs()).min(inv[2].abs());
-    SLACK_ULPS * (extent + o.abs().max_element()) * min_inv
-}
-
 /// Stack capacity: the builder bounds the binary depth to well under 96,
 /// a wide level pushes at most `WIDTH − 1` entries, and every push writes
 /// `WIDTH` (see [`push_children`]).
@@ -93,18 +84,6 @@ struct RayBox {
 }
 
 impl RayBox {
-    #[inline(always)]
-    fn new(o: Vec3, d: Vec3, extent: f32) -> RayBox {
-        // ±0 gives ±∞, whose sign still picks the right near plane.
-        let inv = [1.0 / d.x, 1.0 / d.y, 1.0 / d.z];
-        RayBox {
-            o: [Lanes::splat(o.x), Lanes::splat(o.y), Lanes::splat(o.z)],
-            inv: inv.map(Lanes::splat),
-            near: inv.map(|i| if i >= 0.0 { 0 } else { 1 }),
-            slack: cull_slack(extent, o, inv),
-        }
-    }
-
     /// Boxes entered beyond this are culled (see [`SLACK_ULPS`]).
     #[inline(always)]
     fn cull(&self, t_far: f32) -> f32 {
@@ -156,6 +135,33 @@ pub(crate) fn slab_test(
     (t_enter.simd_le(t_exit).to_bitmask(), t_enter)
 }
 
+/// What the batch cull ([`may_hit`]) found for (up to) [`WIDTH`] rays,
+/// kept so that each ray's own setup need not redo it.
+pub(crate) struct Cull {
+    /// The rays that may hit the box.
+    pub mask: u32,
+    /// Reciprocal directions, per axis and lane.
+    inv: [[f32; WIDTH]; 3],
+    /// Absolute cull slack per lane (see [`SLACK_ULPS`]).
+    slack: [f32; WIDTH],
+}
+
+impl Cull {
+    /// Slab-test constants of the ray in `lane`, whose origin is `o`: the
+    /// values the cull computed, so box decisions agree exactly.
+    #[inline(always)]
+    fn ray_box(&self, lane: usize, o: Vec3) -> RayBox {
+        let inv = [0, 1, 2].map(|axis| self.inv[axis][lane]);
+        RayBox {
+            o: [Lanes::splat(o.x), Lanes::splat(o.y), Lanes::splat(o.z)],
+            inv: inv.map(Lanes::splat),
+            // ±0 gives ±∞, whose sign still picks the right near plane.
+            near: inv.map(|i| if i >= 0.0 { 0 } else { 1 }),
+            slack: self.slack[lane],
+        }
+    }
+}
+
 /// Which of the (up to) [`WIDTH`] rays `start..` of `rays` may hit the box
 /// `bounds` (min, max corner) within `[0, t_max]`, as a bit mask. Rays
 /// that cannot hit anything at all ([`never_hits`]) are never in it, so
@@ -168,7 +174,7 @@ pub(crate) fn slab_test(
 /// on a box that contains all children of the root, so it never rejects a
 /// ray the traversal would accept (IEEE operations are monotone).
 #[inline]
-pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start: usize) -> u32 {
+pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start: usize) -> Cull {
     let end = (start + WIDTH).min(rays.t_max.len());
     let load = |v: &[f32]| Lanes::from(&v[start..end]);
     let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
@@ -198,12 +204,18 @@ pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start
     let (lo, hi) = (bounds[0].map(Lanes::splat), bounds[1].map(Lanes::splat));
     let near = [0, 1, 2].map(|a| positive[a].select(lo[a], hi[a]));
     let far = [0, 1, 2].map(|a| positive[a].select(hi[a], lo[a]));
-    // Cull distance with the slack of `RayBox::cull`, lane by lane.
-    // Same operations in the same order as `cull_slack`.
+    // Cull slack (see `SLACK_ULPS`): 32ε·(extent + |o|∞)/|d|∞, with 1/|d|∞
+    // taken as the smallest |1/dᵢ| (the same value, as division is
+    // correctly rounded and monotone).
     let max_abs_o = o[0].abs().fast_max(o[1].abs()).fast_max(o[2].abs());
     let slack = Lanes::splat(SLACK_ULPS) * (Lanes::splat(extent) + max_abs_o) * min_inv;
     let t_cull = t_max * Lanes::splat(T_FAR_MARGIN) + slack;
-    slab_test(near, far, &o, &inv, t_cull).0 & valid.to_bitmask() & ((1u32 << (end - start)) - 1)
+    let (hit, _) = slab_test(near, far, &o, &inv, t_cull);
+    Cull {
+        mask: hit & valid.to_bitmask() & ((1u32 << (end - start)) - 1),
+        inv: inv.map(Lanes::to_array),
+        slack: slack.to_array(),
+    }
 }
 
 /// The component arrays of a ray batch, as [`may_hit`] reads them.
@@ -403,15 +415,14 @@ fn push_unordered(node: &WideNode, mask: u32, stack: &mut Stack, sp: &mut usize)
 pub(crate) fn closest(
     scene: &Scene,
     stack: &mut Stack,
-    o: Vec3,
-    d: Vec3,
-    t_max: f32,
+    (cull, lane): (&Cull, usize),
+    (o, d, t_max): (Vec3, Vec3, f32),
     work: &mut Work,
 ) -> Closest {
     let mut best = Closest::none(t_max);
-    // The batch cull (`may_hit`) keeps such rays out.
-    debug_assert!(!never_hits(o, d, t_max));
-    let rb = RayBox::new(o, d, scene.extent);
+    // The batch cull keeps such rays out.
+    debug_assert!(!never_hits(o, d, t_max) && cull.mask & (1 << lane) != 0);
+    let rb = cull.ray_box(lane, o);
     // The triangle test's shear is set up at the first triangle leaf: most
     // camera rays of a typical scene never get that far.
     let mut tri: Option<RayTri> = None;
@@ -460,14 +471,13 @@ pub(crate) fn closest(
 pub(crate) fn any(
     scene: &Scene,
     stack: &mut Stack,
-    o: Vec3,
-    d: Vec3,
-    t_max: f32,
+    (cull, lane): (&Cull, usize),
+    (o, d, t_max): (Vec3, Vec3, f32),
     work: &mut Work,
 ) -> bool {
-    // The batch cull (`may_hit`) keeps such rays out.
-    debug_assert!(!never_hits(o, d, t_max));
-    let rb = RayBox::new(o, d, scene.extent);
+    // The batch cull keeps such rays out.
+    debug_assert!(!never_hits(o, d, t_max) && cull.mask & (1 << lane) != 0);
+    let rb = cull.ray_box(lane, o);
     let mut tri: Option<RayTri> = None;
     let mut sp = 0usize;
     let mut current = scene.root;
