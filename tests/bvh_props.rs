@@ -289,6 +289,50 @@ fn degenerate_inputs() {
     }
 }
 
+/// Rays that cannot hit anything — non-finite origin or direction, zero
+/// direction, NaN or negative `t_max` — report no hit and no occlusion in
+/// every mode, alone or next to valid rays in the same batch slot (which
+/// then may go through packet traversal).
+#[test]
+fn invalid_rays_never_hit() {
+    let positions = vec![
+        Vec3::new(-1.0, -1.0, 1.0),
+        Vec3::new(1.0, -1.0, 1.0),
+        Vec3::new(0.0, 1.0, 1.0),
+    ];
+    let g = geometry(positions, vec![[0, 1, 2]; 20], Vec::new());
+    let (nan, inf) = (f32::NAN, f32::INFINITY);
+    let invalid = [
+        (Vec3::new(nan, 0.0, 0.0), Vec3::Z, inf),
+        (Vec3::new(0.0, inf, 0.0), Vec3::Z, inf),
+        (Vec3::ZERO, Vec3::new(0.0, 0.0, inf), inf),
+        (Vec3::ZERO, Vec3::new(nan, 0.0, 1.0), inf),
+        (Vec3::ZERO, Vec3::new(-0.0, 0.0, -0.0), inf),
+        (Vec3::ZERO, Vec3::Z, nan),
+        (Vec3::ZERO, Vec3::Z, -1.0),
+    ];
+    let mut rays = Rays::default();
+    for (k, &(o, d, t)) in invalid.iter().enumerate() {
+        // Valid rays around each invalid one, so slots mix both kinds.
+        rays.push(Vec3::new(0.01 * k as f32, 0.0, 0.0), Vec3::Z, inf);
+        rays.push(o, d, t);
+        rays.push(Vec3::new(0.0, 0.01 * k as f32, 0.0), Vec3::Z, inf);
+    }
+    for accel in [Accel::Sah, Accel::Median, Accel::None] {
+        let bvh = Bvh::build(&g, accel);
+        let mut hits = Hits::default();
+        let mut occluded = Vec::new();
+        let mut stats = TraversalStats::default();
+        bvh.intersect(&rays, &mut hits, &mut stats, None);
+        bvh.occluded(&rays, &mut occluded, &mut stats);
+        for i in 0..rays.len() {
+            let valid = i % 3 != 1;
+            assert_eq!(hits.is_hit(i), valid, "{accel:?} ray {i}: hit");
+            assert_eq!(occluded[i], valid, "{accel:?} ray {i}: occluded");
+        }
+    }
+}
+
 /// Axis-parallel rays travelling exactly in the plane of a box face: the
 /// slab test must count the face as inside (as brute force does), for
 /// both signs of zero.
