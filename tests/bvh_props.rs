@@ -325,10 +325,10 @@ fn invalid_rays_never_hit() {
         let mut stats = TraversalStats::default();
         bvh.intersect(&rays, &mut hits, &mut stats, None);
         bvh.occluded(&rays, &mut occluded, &mut stats);
-        for i in 0..rays.len() {
+        for (i, &occluded) in occluded.iter().enumerate() {
             let valid = i % 3 != 1;
             assert_eq!(hits.is_hit(i), valid, "{accel:?} ray {i}: hit");
-            assert_eq!(occluded[i], valid, "{accel:?} ray {i}: occluded");
+            assert_eq!(occluded, valid, "{accel:?} ray {i}: occluded");
         }
     }
 }

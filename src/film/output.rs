@@ -163,7 +163,13 @@ fn write_exr_channels(image: &Image, path: &Path, with_rate: bool, with_error: b
     let layer = Layer::new(
         size,
         LayerAttributes::default(),
-        Encoding::FAST_LOSSLESS,
+        // Blocks in increasing order: with the default (unspecified) order,
+        // parallel compression writes them as they finish, so the same
+        // image gave different files.
+        Encoding {
+            line_order: exr::meta::attribute::LineOrder::Increasing,
+            ..Encoding::FAST_LOSSLESS
+        },
         AnyChannels::sort(channels),
     );
     exr::prelude::Image::from_layer(layer)
