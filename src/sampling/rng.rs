@@ -344,8 +344,11 @@ impl VertexDraws {
         }
         let n = streams.len();
         self.streams = n;
-        self.u.resize(slots * n, 0.0);
-        self.v.resize(slots * n, 0.0);
+        // Grow only (waves shrink and refill; see `point` for the layout).
+        if self.u.len() < slots * n {
+            self.u.resize(slots * n, 0.0);
+            self.v.resize(slots * n, 0.0);
+        }
         for (chunk, group) in streams.chunks(8).enumerate() {
             let start = chunk * 8;
             let lanes = group.len();

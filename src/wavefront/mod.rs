@@ -17,6 +17,7 @@ pub mod paths;
 pub mod shade;
 pub mod shadow;
 pub mod stats;
+pub mod surface;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -31,7 +32,6 @@ use crate::integrator::bsdf::{self, Surface};
 use crate::integrator::lights::LightSet;
 use crate::integrator::{Settings, View};
 use crate::ray::Hits;
-use crate::sampling::rng::VertexDraws;
 use crate::scene::Scene;
 
 use generate::{CameraRays, PassQueue};
@@ -94,7 +94,7 @@ pub struct Renderer<'a> {
 struct Scratch {
     paths: Paths,
     hits: Hits,
-    draws: VertexDraws,
+    shading: shade::ShadeScratch,
     shadow: ShadowRays,
     probes: ShadowRays,
     probe_hits: Hits,
@@ -199,7 +199,7 @@ impl<'a> Renderer<'a> {
         let Scratch {
             paths,
             hits,
-            draws,
+            shading,
             shadow,
             probes,
             probe_hits,
@@ -253,7 +253,7 @@ impl<'a> Renderer<'a> {
                 let t = Instant::now();
                 shadow.clear();
                 probes.clear();
-                shade::shade(&inputs, hits, paths, draws, shadow, probes);
+                shade::shade(&inputs, hits, paths, shading, shadow, probes);
                 stats.shade.record(paths.len(), t);
 
                 if !shadow.is_empty() {

@@ -11,12 +11,20 @@ use glam::Vec3;
 use crate::integrator::bsdf::Surface;
 use crate::integrator::lights::LightSet;
 use crate::integrator::{Settings, View};
-use crate::ray::{Hits, gamma, offset_by};
+use crate::ray::{Hits, offset_by};
 use crate::sampling::rng::VertexDraws;
 use crate::sampling::warp;
-use crate::scene::{Geometry, Primitive};
+use crate::scene::Geometry;
 
 use super::paths::{Paths, ShadowRays};
+use super::surface::SurfacePoints;
+
+/// Buffers the shade stage reuses from wave to wave.
+#[derive(Clone, Debug, Default)]
+pub struct ShadeScratch {
+    draws: VertexDraws,
+    surfaces: SurfacePoints,
+}
 
 /// What the shade stage reads besides the paths.
 pub struct ShadeInputs<'a> {
@@ -24,92 +32,6 @@ pub struct ShadeInputs<'a> {
     pub surfaces: &'a [Surface],
     pub lights: &'a LightSet,
     pub settings: &'a Settings,
-}
-
-/// Where a ray hit, with normals oriented toward the side it came from.
-struct SurfacePoint {
-    p: Vec3,
-    /// Geometric normal on the incoming side (unit).
-    ng: Vec3,
-    /// Shading normal, flipped into the same hemisphere as `ng` (unit).
-    ns: Vec3,
-    /// Whether the ray hit the front (the side the geometric normal points to).
-    front: bool,
-    /// How far off the surface to start rays leaving `p` (see [`offset_by`]).
-    err: f32,
-}
-
-fn surface_point(
-    geometry: &Geometry,
-    prim: u32,
-    u: f32,
-    v: f32,
-    origin: Vec3,
-    dir: Vec3,
-    t: f32,
-) -> SurfacePoint {
-    let (p, ng, ns, err) = match geometry.primitive(prim) {
-        Primitive::Triangle(i) => {
-            let tris = &geometry.triangles;
-            let [a, b, c] = tris.vertices(i);
-            let ng = (b - a).cross(c - a).normalize_or(Vec3::Y);
-            // The point where the ray meets the triangle's plane, in f64
-            // and rounded once. Interpolating the f32 barycentrics would
-            // be off by ~ε times the triangle's size along the surface
-            // (0.1 on a 1e6 ground plane), and o + t·d by the error of t.
-            let (a64, o64, d64) = (a.as_dvec3(), origin.as_dvec3(), dir.as_dvec3());
-            let n64 = (b.as_dvec3() - a64).cross(c.as_dvec3() - a64);
-            let t64 = (a64 - o64).dot(n64) / d64.dot(n64);
-            let p = if t64.is_finite() {
-                (o64 + t64 * d64).as_vec3()
-            } else {
-                (1.0 - u - v) * a + u * b + v * c
-            };
-            // Off-plane error of p: its rounding to f32 (½ ULP per axis,
-            // bounded by γ₁|p|), the f64 arithmetic before it (≪ 1e-12 of
-            // the magnitudes), and above all the rounding of the
-            // ray/triangle test that a new ray from near p makes: it
-            // works with vertices relative to the ray origin, sheared, so
-            // it errs by up to ~γ₈ times the distance R from p to the
-            // triangle's farthest vertex.
-            let r = (a - p)
-                .abs()
-                .max((b - p).abs())
-                .max((c - p).abs())
-                .max_element();
-            let abs_n = ng.abs();
-            let err = gamma(1) * abs_n.dot(p.abs())
-                + 1e-12 * (origin.abs().max_element() + (t * dir).abs().max_element())
-                + gamma(8) * r;
-            (p, ng, tris.shading_normal(i, u, v), err)
-        }
-        Primitive::Sphere(i) => {
-            let s = &geometry.spheres;
-            let (c, r) = (s.center[i], s.radius[i]);
-            // Relative to the centre: o − c is exact when both are far from
-            // the origin (Sterbenz), so the normal is accurate to the
-            // sphere's size, not to the float spacing of o + t·d (1/128
-            // at 1e5, 10% of the shading on a unit sphere there).
-            let n = ((origin - c) + t * dir).normalize_or(Vec3::Y);
-            // Reproject onto the sphere to cancel the error of o + t·d.
-            // What is left: rounding c + r·n (γ₁ of |c| + r) and |n| ≠ 1
-            // (γ₂ r), and the error of the ray/sphere test from the new
-            // origin, whose inside/outside decision |o − c|² − r² errs by
-            // ~γ₃ r² (a distance of γ₃ r) after o − c errs by γ₁ r.
-            let err = gamma(8) * (c.abs().max_element() + r);
-            (c + r * n, n, n, err)
-        }
-    };
-    let front = ng.dot(dir) < 0.0;
-    let ng = if front { ng } else { -ng };
-    let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
-    SurfacePoint {
-        p,
-        ng,
-        ns,
-        front,
-        err,
-    }
 }
 
 /// The blocks of two-dimensional draws every path vertex takes, in
@@ -143,11 +65,13 @@ pub fn shade(
     inputs: &ShadeInputs,
     hits: &Hits,
     paths: &mut Paths,
-    draws: &mut VertexDraws,
+    scratch: &mut ShadeScratch,
     shadow: &mut ShadowRays,
     probes: &mut ShadowRays,
 ) {
     let settings = inputs.settings;
+    let ShadeScratch { draws, surfaces } = scratch;
+    surfaces.compute(inputs.geometry, hits, &paths.rays);
     if settings.view == View::Path {
         draws.draw(&mut paths.stream, vertex_blocks(inputs));
     }
@@ -158,16 +82,7 @@ pub fn shade(
             paths.alive[i] = false;
             continue;
         }
-        let origin = paths.rays.origin(i);
-        let sp = surface_point(
-            inputs.geometry,
-            hits.prim[i],
-            hits.u[i],
-            hits.v[i],
-            origin,
-            dir,
-            hits.t[i],
-        );
+        let sp = surfaces.get(i);
 
         match settings.view {
             View::Normals => {
