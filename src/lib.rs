@@ -9,6 +9,7 @@ pub mod bvh;
 pub mod cli;
 pub mod film;
 pub mod integrator;
+pub mod lanes;
 pub mod ray;
 pub mod sampling;
 pub mod scene;

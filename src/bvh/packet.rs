@@ -73,7 +73,7 @@ impl Packet {
     #[inline(always)]
     pub fn new(rays: &Ray8Src, start: usize, active: u32, extent: f32) -> Option<Packet> {
         let end = (start + WIDTH).min(rays.t_max.len());
-        let load = |v: &[f32]| Lanes::from(&v[start..end]);
+        let load = |v: &[f32]| crate::lanes::load(&v[..end], start);
         let dir = [load(rays.dir[0]), load(rays.dir[1]), load(rays.dir[2])];
         let inv = dir.map(|d| Lanes::ONE / d);
         // The sign of 1/d (±∞ for ±0) picks the near plane, as in RayBox.

@@ -176,7 +176,7 @@ impl Cull {
 #[inline]
 pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start: usize) -> Cull {
     let end = (start + WIDTH).min(rays.t_max.len());
-    let load = |v: &[f32]| Lanes::from(&v[start..end]);
+    let load = |v: &[f32]| crate::lanes::load(&v[..end], start);
     let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
     let dir = [load(rays.dir[0]), load(rays.dir[1]), load(rays.dir[2])];
     let t_max = load(rays.t_max);

@@ -15,6 +15,8 @@
 
 use wide::{f32x8, i32x8, u32x8};
 
+use crate::lanes;
+
 /// The integer operations the sampler's hashes are made of, for one stream
 /// (`u32`) or eight at once (`u32x8`). Every hash below is written once,
 /// generically, so the batched draws ([`VertexDraws`]) are bit for bit the
@@ -351,7 +353,6 @@ impl VertexDraws {
         }
         for (chunk, group) in streams.chunks(8).enumerate() {
             let start = chunk * 8;
-            let lanes = group.len();
             let field = |f: fn(&SampleStream) -> u32| {
                 let mut a = [0u32; 8];
                 for (x, s) in a.iter_mut().zip(group) {
@@ -366,9 +367,9 @@ impl VertexDraws {
                 let first = sample * u32x8::splat(block_stride(count));
                 for j in 0..count {
                     let (x, y) = seeds.point(first + u32x8::splat(j));
-                    let at = slot * n + start;
-                    self.u[at..at + lanes].copy_from_slice(&to_unit_floats(x).to_array()[..lanes]);
-                    self.v[at..at + lanes].copy_from_slice(&to_unit_floats(y).to_array()[..lanes]);
+                    let row = slot * n..(slot + 1) * n;
+                    lanes::store(&mut self.u[row.clone()], start, to_unit_floats(x));
+                    lanes::store(&mut self.v[row], start, to_unit_floats(y));
                     slot += 1;
                 }
             }

@@ -12,6 +12,7 @@
 use glam::Vec3;
 use wide::{f32x8, f64x4};
 
+use crate::lanes;
 use crate::ray::{Hits, Rays, gamma};
 use crate::scene::{Geometry, Primitive};
 
@@ -118,7 +119,6 @@ impl SurfacePoints {
         start: usize,
         end: usize,
     ) {
-        let lanes = end - start;
         // Plain loops: `array::map` here compiled to element-wise moves.
         let gather = |data: &[Vec3], k: usize| -> V {
             let mut xyz = [[0.0f32; LANES]; 3];
@@ -128,7 +128,7 @@ impl SurfacePoints {
             }
             v3(|axis| L::from(xyz[axis]))
         };
-        let load = |v: &[f32]| L::from(&v[start..end]);
+        let load = |v: &[f32]| lanes::load(&v[..end], start);
         let (a, b, c) = (
             gather(&tris.positions, 0),
             gather(&tris.positions, 1),
@@ -177,8 +177,7 @@ impl SurfacePoints {
         let flip = dot(ns, ng).simd_lt(L::ZERO);
         let ns = v3(|k| flip.select(-ns[k], ns[k]));
 
-        let store =
-            |dst: &mut Vec<f32>, x: L| dst[start..end].copy_from_slice(&x.to_array()[..lanes]);
+        let store = |dst: &mut Vec<f32>, x: L| lanes::store(&mut dst[..end], start, x);
         for axis in 0..3 {
             store(&mut self.p[axis], p[axis]);
             store(&mut self.ng[axis], ng[axis]);
