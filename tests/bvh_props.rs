@@ -290,7 +290,7 @@ fn degenerate_inputs() {
 }
 
 /// Rays that cannot hit anything — non-finite origin or direction, zero
-/// direction, NaN or negative `t_max` — report no hit and no occlusion in
+/// or subnormal direction, NaN or negative `t_max` — report no hit and no occlusion in
 /// every mode, alone or next to valid rays in the same batch slot (which
 /// then may go through packet traversal).
 #[test]
@@ -308,6 +308,8 @@ fn invalid_rays_never_hit() {
         (Vec3::ZERO, Vec3::new(0.0, 0.0, inf), inf),
         (Vec3::ZERO, Vec3::new(nan, 0.0, 1.0), inf),
         (Vec3::ZERO, Vec3::new(-0.0, 0.0, -0.0), inf),
+        // Subnormal in every component: 1/d overflows.
+        (Vec3::ZERO, Vec3::new(1e-40, 0.0, 1e-39), inf),
         (Vec3::ZERO, Vec3::Z, nan),
         (Vec3::ZERO, Vec3::Z, -1.0),
     ];

@@ -285,17 +285,7 @@ impl Bvh {
         for start in (0..n).step_by(WIDTH) {
             // Rays that miss the scene's bounds skip traversal altogether
             // (counted as one node visit: the box test they did get).
-            let cull = match (&scene, self.accel) {
-                (Some(scene), Accel::Sah | Accel::Median) => {
-                    Some(traverse::may_hit(&self.bounds, scene.extent, &src, start))
-                }
-                _ => None,
-            };
-            let candidates = match (&cull, self.accel) {
-                (Some(cull), _) => cull.mask,
-                (None, Accel::None) => u32::MAX,
-                (None, _) => 0,
-            };
+            let (cull, candidates) = self.cull(&scene, &src, start);
             if let (Some(scene), None) = (&scene, &cost)
                 && let Some((packet, active)) = self.packet(scene, &src, start, candidates)
             {
@@ -385,17 +375,7 @@ impl Bvh {
         let mut packet_stack = packet::new_packet_stack();
         let src = ray_src(rays);
         for start in (0..n).step_by(WIDTH) {
-            let cull = match (&scene, self.accel) {
-                (Some(scene), Accel::Sah | Accel::Median) => {
-                    Some(traverse::may_hit(&self.bounds, scene.extent, &src, start))
-                }
-                _ => None,
-            };
-            let candidates = match (&cull, self.accel) {
-                (Some(cull), _) => cull.mask,
-                (None, Accel::None) => u32::MAX,
-                (None, _) => 0,
-            };
+            let (cull, candidates) = self.cull(&scene, &src, start);
             if let Some(scene) = &scene
                 && let Some((packet, active)) = self.packet(scene, &src, start, candidates)
             {
@@ -455,6 +435,27 @@ impl Bvh {
         stats.rays += n as u64;
         stats.nodes_visited += nodes;
         stats.primitives_tested += prims;
+    }
+
+    /// The batch cull of rays `start..` (with a hierarchy) and the lanes to
+    /// trace: those the cull let through, every lane without a hierarchy
+    /// (brute force checks each ray itself), none in an empty scene.
+    #[inline(always)]
+    fn cull(
+        &self,
+        scene: &Option<traverse::Scene>,
+        src: &traverse::Ray8Src,
+        start: usize,
+    ) -> (Option<traverse::Cull>, u32) {
+        match (scene, self.accel) {
+            (_, Accel::None) => (None, u32::MAX),
+            (Some(scene), _) => {
+                let cull = traverse::may_hit(&self.bounds, scene.extent, src, start);
+                let mask = cull.mask;
+                (Some(cull), mask)
+            }
+            (None, _) => (None, 0),
+        }
     }
 
     /// The rays `start..` of a batch that may hit the scene (`candidates`)

@@ -89,7 +89,8 @@ impl Packet {
             };
         }
         let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
-        // Same operations in the same order as `traverse::may_hit`.
+        // The same values as `traverse::may_hit` computes (equal for every
+        // ray that can hit: no NaN, and no −0 after `abs`).
         let min_inv = inv[0].abs().fast_min(inv[1].abs()).fast_min(inv[2].abs());
         let max_abs_o = o[0].abs().fast_max(o[1].abs()).fast_max(o[2].abs());
         let slack = Lanes::splat(SLACK_ULPS) * (Lanes::splat(extent) + max_abs_o) * min_inv;

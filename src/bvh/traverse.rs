@@ -181,17 +181,17 @@ pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start
     let dir = [load(rays.dir[0]), load(rays.dir[1]), load(rays.dir[2])];
     let t_max = load(rays.t_max);
     // `never_hits`, lane by lane: a finite value is below ∞ in magnitude
-    // (NaN compares false), a zero direction is zero on every axis, and an
-    // interval is empty if t_max is NaN or negative.
+    // (NaN compares false), a usable direction has a component of normal
+    // magnitude, and an interval is empty if t_max is NaN or negative.
     let finite = |v: Lanes| v.abs().simd_lt(Lanes::splat(f32::INFINITY));
-    let zero = |v: Lanes| v.simd_eq(Lanes::ZERO);
+    let normal = |v: Lanes| v.abs().simd_ge(Lanes::splat(f32::MIN_POSITIVE));
     let valid = finite(o[0])
         & finite(o[1])
         & finite(o[2])
         & finite(dir[0])
         & finite(dir[1])
         & finite(dir[2])
-        & !(zero(dir[0]) & zero(dir[1]) & zero(dir[2]))
+        & (normal(dir[0]) | normal(dir[1]) | normal(dir[2]))
         & t_max.simd_ge(Lanes::ZERO);
     let inv = dir.map(|d| Lanes::ONE / d);
     let min_inv = inv
@@ -225,11 +225,17 @@ pub(crate) struct Ray8Src<'a> {
     pub t_max: &'a [f32],
 }
 
-/// Rays that cannot hit anything: zero or non-finite direction, non-finite
-/// origin, or an empty (negative or NaN) interval.
+/// Rays that cannot hit anything: a direction that is zero or subnormal
+/// in every component (1/d overflows, and the triangle test's shear with
+/// it) or not finite, a non-finite origin, or an empty (negative or NaN)
+/// interval.
 #[inline(always)]
 pub(crate) fn never_hits(o: Vec3, d: Vec3, t_max: f32) -> bool {
-    d == Vec3::ZERO || !d.is_finite() || !o.is_finite() || t_max.is_nan() || t_max < 0.0
+    d.abs().max_element() < f32::MIN_POSITIVE
+        || !d.is_finite()
+        || !o.is_finite()
+        || t_max.is_nan()
+        || t_max < 0.0
 }
 
 /// Closest hit of one ray.
@@ -410,7 +416,9 @@ fn push_unordered(node: &WideNode, mask: u32, stack: &mut Stack, sp: &mut usize)
     node.child[mask.trailing_zeros() as usize]
 }
 
-/// Closest hit along `o + t·d`, `t ∈ [0, t_max]`.
+/// Closest hit along `o + t·d`, `t ∈ [0, t_max]`, for the ray in `lane`
+/// of a batch cull that let it through (its bit is set in `cull.mask`,
+/// so the ray can hit something: see [`never_hits`]).
 #[inline]
 pub(crate) fn closest(
     scene: &Scene,
@@ -466,7 +474,8 @@ pub(crate) fn closest(
     }
 }
 
-/// Whether anything is hit along `o + t·d`, `t ∈ [0, t_max]`.
+/// Whether anything is hit along `o + t·d`, `t ∈ [0, t_max]`, for the ray
+/// in `lane` of a batch cull that let it through (as for [`closest`]).
 #[inline]
 pub(crate) fn any(
     scene: &Scene,
@@ -528,12 +537,7 @@ pub(crate) fn closest_brute(
     t_max: f32,
     work: &mut Work,
 ) -> Closest {
-    let mut best = Closest {
-        t: t_max,
-        prim: NO_HIT,
-        u: 0.0,
-        v: 0.0,
-    };
+    let mut best = Closest::none(t_max);
     if never_hits(o, d, t_max) {
         return best;
     }

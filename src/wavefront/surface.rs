@@ -304,3 +304,150 @@ fn normalize_or_y(x: V) -> V {
     let y = [L::ZERO, L::ONE, L::ZERO];
     v3(|k| ok.select(n[k], y[k]))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ray::NO_HIT;
+
+    /// The per-hit scalar formulation the vector stage replaced, kept as
+    /// the reference it must reproduce bit for bit.
+    fn scalar_triangle_point(
+        tris: &crate::scene::Triangles,
+        i: usize,
+        (u, v): (f32, f32),
+        origin: Vec3,
+        dir: Vec3,
+        t: f32,
+    ) -> SurfacePoint {
+        let [a, b, c] = tris.vertices(i);
+        let ng = (b - a).cross(c - a).normalize_or(Vec3::Y);
+        let (a64, o64, d64) = (a.as_dvec3(), origin.as_dvec3(), dir.as_dvec3());
+        let n64 = (b.as_dvec3() - a64).cross(c.as_dvec3() - a64);
+        let t64 = (a64 - o64).dot(n64) / d64.dot(n64);
+        let p64 = (o64 + t64 * d64).as_vec3();
+        let p = if p64.is_finite() {
+            p64
+        } else {
+            (1.0 - u - v) * a + u * b + v * c
+        };
+        let r = (a - p)
+            .abs()
+            .max((b - p).abs())
+            .max((c - p).abs())
+            .max_element();
+        let err = gamma(1) * ng.abs().dot(p.abs())
+            + 1e-12 * (origin.abs().max_element() + (t * dir).abs().max_element())
+            + gamma(8) * r;
+        let ns = tris.shading_normal(i, u, v);
+        let front = ng.dot(dir) < 0.0;
+        let ng = if front { ng } else { -ng };
+        let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
+        SurfacePoint {
+            p,
+            ng,
+            ns,
+            front,
+            err,
+        }
+    }
+
+    #[test]
+    fn vector_stage_matches_the_scalar_formulas() {
+        let mut g = Geometry::default();
+        let t = &mut g.triangles;
+        // A tilted triangle far from the origin, one at the origin, a
+        // degenerate one (all vertices equal, zero normals), a sliver.
+        t.positions = vec![
+            Vec3::new(1e4, 2e4, -3e4),
+            Vec3::new(1e4 + 3.0, 2e4 + 0.5, -3e4),
+            Vec3::new(1e4, 2e4 + 2.0, -3e4 + 1.0),
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(5.0, 5.0, 5.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1e-3, 0.0, 1.0),
+        ];
+        t.normals = vec![
+            Vec3::new(0.0, 0.6, 0.8),
+            Vec3::new(0.0, 0.8, 0.6),
+            Vec3::Z,
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::Z,
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::X,
+        ];
+        t.indices = vec![[0, 1, 2], [3, 4, 5], [6, 6, 6], [7, 8, 3]];
+        t.material = vec![0; 4];
+        g.spheres.center = vec![Vec3::new(0.0, 0.0, -10.0)];
+        g.spheres.radius = vec![2.0];
+        g.spheres.material = vec![0];
+        let sphere = 4u32;
+
+        let (mut rays, mut hits) = (Rays::default(), Hits::default());
+        let mut add = |o: Vec3, d: Vec3, prim: u32, t: f32, u: f32, v: f32| {
+            rays.push(o, d, f32::INFINITY);
+            hits.t.push(t);
+            hits.prim.push(prim);
+            hits.u.push(u);
+            hits.v.push(v);
+        };
+        // 13 hits: two full groups of eight would hide tail handling.
+        for k in 0..13u32 {
+            let s = k as f32 * 0.07;
+            match k % 5 {
+                0 => add(
+                    Vec3::new(1e4, 2e4, 0.0),
+                    Vec3::new(0.1 + s, 0.3, -1.0),
+                    0,
+                    3e4,
+                    0.2,
+                    0.3,
+                ),
+                1 => add(Vec3::new(0.2, 0.1 + s, 5.0), -Vec3::Z, 1, 5.0, 0.2, 0.1 + s),
+                2 => add(Vec3::new(0.2, 0.3, -1.0), Vec3::Z, 1, 1.0, 0.2 + s, 0.3),
+                3 => add(
+                    Vec3::new(0.0, 0.0, 5.0),
+                    Vec3::X,
+                    2 + (k & 1),
+                    1.0,
+                    0.3,
+                    0.3,
+                ),
+                _ => add(
+                    Vec3::ZERO,
+                    -Vec3::Z,
+                    if k == 4 { sphere } else { NO_HIT },
+                    8.0,
+                    0.0,
+                    0.0,
+                ),
+            }
+        }
+        let mut points = SurfacePoints::default();
+        points.compute(&g, &hits, &rays);
+        for i in 0..hits.len() {
+            let (o, d, t) = (rays.origin(i), rays.direction(i), hits.t[i]);
+            let expected = match g.primitive(hits.prim[i]) {
+                _ if !hits.is_hit(i) => continue,
+                Primitive::Triangle(tri) => {
+                    scalar_triangle_point(&g.triangles, tri, (hits.u[i], hits.v[i]), o, d, t)
+                }
+                Primitive::Sphere(s) => sphere_point(&g, s, o, d, t),
+            };
+            let got = points.get(i);
+            let bits =
+                |sp: &SurfacePoint| [sp.p, sp.ng, sp.ns].map(|v| v.to_array().map(f32::to_bits));
+            assert_eq!(
+                bits(&got),
+                bits(&expected),
+                "hit {i}: {got:?} vs {expected:?}"
+            );
+            assert_eq!(got.err.to_bits(), expected.err.to_bits(), "hit {i} err");
+            assert_eq!(got.front, expected.front, "hit {i} front");
+        }
+    }
+}
