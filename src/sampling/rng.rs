@@ -353,14 +353,7 @@ impl VertexDraws {
         }
         for (chunk, group) in streams.chunks(8).enumerate() {
             let start = chunk * 8;
-            let field = |f: fn(&SampleStream) -> u32| {
-                let mut a = [0u32; 8];
-                for (x, s) in a.iter_mut().zip(group) {
-                    *x = f(s);
-                }
-                u32x8::from(a)
-            };
-            let (key, sample, pair) = (field(|s| s.key), field(|s| s.sample), field(|s| s.pair));
+            let StreamLanes { key, sample, pair } = StreamLanes::of(group);
             let mut slot = 0;
             for (b, &count) in self.counts.iter().enumerate() {
                 let seeds = PairSeeds::new(key, pair + u32x8::splat(b as u32));
@@ -386,6 +379,39 @@ impl VertexDraws {
         let at = (self.first_slot[b] + j as usize) * self.streams + i;
         (self.u[at], self.v[at])
     }
+}
+
+/// The counters of up to eight streams, one per lane (zeros past the end).
+struct StreamLanes {
+    key: u32x8,
+    sample: u32x8,
+    pair: u32x8,
+}
+
+impl StreamLanes {
+    #[inline(always)]
+    fn of(group: &[SampleStream]) -> StreamLanes {
+        let field = |f: fn(&SampleStream) -> u32| {
+            let mut a = [0u32; 8];
+            for (x, s) in a.iter_mut().zip(group) {
+                *x = f(s);
+            }
+            u32x8::from(a)
+        };
+        StreamLanes {
+            key: field(|s| s.key),
+            sample: field(|s| s.sample),
+            pair: field(|s| s.pair),
+        }
+    }
+}
+
+/// [`SampleStream::pixel_offset`] of up to eight streams at once (lanes
+/// past `streams.len()` are unspecified).
+pub fn pixel_offsets(streams: &[SampleStream]) -> ([f32; 8], [f32; 8]) {
+    let StreamLanes { key, sample, .. } = StreamLanes::of(streams);
+    let (x, y) = PairSeeds::new(key, u32x8::splat(0)).point(sample);
+    (to_unit_floats(x).to_array(), to_unit_floats(y).to_array())
 }
 
 /// Blocks are aligned to a power of two so that any count keeps the
@@ -567,6 +593,19 @@ mod tests {
                     }
                 }
                 assert_eq!(stream.pair, streams[i].pair);
+            }
+        }
+    }
+
+    #[test]
+    fn batched_pixel_offsets_are_the_scalar_ones() {
+        let streams: Vec<SampleStream> = (0..11u32)
+            .map(|i| SampleStream::new(4, 7 * i, i * 0x9e37_79b9))
+            .collect();
+        for group in streams.chunks(8) {
+            let (x, y) = pixel_offsets(group);
+            for (k, s) in group.iter().enumerate() {
+                assert_eq!((x[k], y[k]), s.pixel_offset());
             }
         }
     }

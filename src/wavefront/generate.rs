@@ -5,6 +5,7 @@
 //! owns one result slot. Waves take items in order until full.
 
 use crate::film::Tile;
+use crate::sampling::rng::pixel_offsets;
 use crate::sampling::{SampleStream, warp};
 use crate::scene::{Camera, CameraView};
 
@@ -61,40 +62,54 @@ pub fn refill(
     let take = room.min(queue.len() - queue.next.min(queue.len()));
     let spp = queue.samples_per_pixel as usize;
     let (width, height) = (cam.view.width, cam.view.height);
-    for item in queue.next..queue.next + take {
-        let local = queue.active[item / spp];
-        let sample = queue.first_sample + (item % spp) as u32;
-        let tx = local % queue.tile.width;
-        let ty = local / queue.tile.width;
-        let x = queue.tile.x0 + tx;
-        let row = queue.tile.y0 + ty;
-        let pixel_id = row * width + x;
-        let mut stream = SampleStream::new(cam.seed, pixel_id, sample);
-        let (u, v) = if cam.pixel_centre {
-            (0.5, 0.5)
+    // Eight samples at a time: their pixel offsets are drawn together,
+    // one Sobol point per vector lane (a long chain of dependent integer
+    // operations each, drawn one by one before).
+    let end = queue.next + take;
+    for first in (queue.next..end).step_by(8) {
+        let items = first..(first + 8).min(end);
+        let mut pixels = [(0u32, 0u32); 8];
+        let mut streams = [SampleStream::new(cam.seed, 0, 0); 8];
+        for (k, item) in items.clone().enumerate() {
+            let local = queue.active[item / spp];
+            let sample = queue.first_sample + (item % spp) as u32;
+            let x = queue.tile.x0 + local % queue.tile.width;
+            let row = queue.tile.y0 + local / queue.tile.width;
+            pixels[k] = (x, row);
+            streams[k] = SampleStream::new(cam.seed, row * width + x, sample);
+        }
+        let n = items.len();
+        let (us, vs) = if cam.pixel_centre {
+            ([0.5; 8], [0.5; 8])
         } else {
-            stream.pixel_offset()
+            pixel_offsets(&streams[..n])
         };
-        // Film rows run top-down; the camera's y = 0 is the bottom row.
-        let y = height - 1 - row;
-        let dir = cam.camera.direction(&cam.view, x as f32 + u, y as f32 + v);
-        // Start at the near plane along the view axis: t ∈ [znear, zfar] for a
-        // direction whose camera-space z is −1.
-        let (origin, dir) = if cam.lens_radius > 0.0 {
-            // Thin lens: aim from a point on the aperture at where the
-            // pinhole ray meets the plane in focus (camera-space z = −d).
-            let focus = cam.camera.position + cam.focal_distance * dir;
-            let (lu, lv) = stream.next_2d();
-            let disk = warp::concentric_disk(lu, lv) * cam.lens_radius;
-            let lens = cam.camera.position
-                + cam.camera.camera_to_world * glam::Vec3::new(disk.x, disk.y, 0.0);
-            (lens, (focus - lens) / cam.focal_distance)
-        } else {
-            (cam.camera.position, dir)
-        };
-        let origin = origin + cam.camera.znear * dir;
-        let t_max = cam.camera.zfar - cam.camera.znear;
-        paths.push(item as u32, stream, origin, dir, t_max);
+        for (k, item) in items.enumerate() {
+            let (x, row) = pixels[k];
+            let mut stream = streams[k];
+            // Film rows run top-down; the camera's y = 0 is the bottom row.
+            let y = height - 1 - row;
+            let dir = cam
+                .camera
+                .direction(&cam.view, x as f32 + us[k], y as f32 + vs[k]);
+            // Start at the near plane along the view axis: t ∈ [znear, zfar]
+            // for a direction whose camera-space z is −1.
+            let (origin, dir) = if cam.lens_radius > 0.0 {
+                // Thin lens: aim from a point on the aperture at where the
+                // pinhole ray meets the plane in focus (camera-space z = −d).
+                let focus = cam.camera.position + cam.focal_distance * dir;
+                let (lu, lv) = stream.next_2d();
+                let disk = warp::concentric_disk(lu, lv) * cam.lens_radius;
+                let lens = cam.camera.position
+                    + cam.camera.camera_to_world * glam::Vec3::new(disk.x, disk.y, 0.0);
+                (lens, (focus - lens) / cam.focal_distance)
+            } else {
+                (cam.camera.position, dir)
+            };
+            let origin = origin + cam.camera.znear * dir;
+            let t_max = cam.camera.zfar - cam.camera.znear;
+            paths.push(item as u32, stream, origin, dir, t_max);
+        }
     }
     queue.next += take;
     take
