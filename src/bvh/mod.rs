@@ -287,7 +287,7 @@ impl Bvh {
             // (counted as one node visit: the box test they did get).
             let (cull, candidates) = self.cull(&scene, &src, start);
             if let (Some(scene), None) = (&scene, &cost)
-                && let Some((packet, active)) = self.packet(scene, &src, start, candidates)
+                && let Some((packet, active)) = Self::packet(&src, start, &cull)
             {
                 let mut best = [traverse::Closest::none(0.0); WIDTH];
                 for (lane, b) in best.iter_mut().enumerate() {
@@ -377,7 +377,7 @@ impl Bvh {
         for start in (0..n).step_by(WIDTH) {
             let (cull, candidates) = self.cull(&scene, &src, start);
             if let Some(scene) = &scene
-                && let Some((packet, active)) = self.packet(scene, &src, start, candidates)
+                && let Some((packet, active)) = Self::packet(&src, start, &cull)
             {
                 let end = (start + WIDTH).min(n);
                 let t_max: [f32; WIDTH] = std::array::from_fn(|lane| {
@@ -458,22 +458,17 @@ impl Bvh {
         }
     }
 
-    /// The rays `start..` of a batch that may hit the scene (`candidates`)
-    /// as a packet with its active-lane mask, when packet traversal pays:
-    /// a real hierarchy, at least two rays, all in one octant.
+    /// The rays of a batch slot that the cull let through, as a packet,
+    /// when packet traversal pays: a real hierarchy (a cull), at least two
+    /// rays, all in one octant.
     #[inline(always)]
     fn packet(
-        &self,
-        scene: &traverse::Scene,
         src: &traverse::Ray8Src,
         start: usize,
-        candidates: u32,
+        cull: &Option<traverse::Cull>,
     ) -> Option<(packet::Packet, u32)> {
-        // The cull has already dropped rays that cannot hit anything.
-        if self.accel == Accel::None || candidates.count_ones() < 2 {
-            return None;
-        }
-        packet::Packet::new(src, start, candidates, scene.extent).map(|p| (p, candidates))
+        let cull = cull.as_ref().filter(|c| c.mask.count_ones() >= 2)?;
+        packet::Packet::new(src, start, cull).map(|p| (p, cull.mask))
     }
 
     /// Which structure this is.

@@ -25,12 +25,8 @@
 use glam::Vec3;
 
 use super::flatten::{ChildRef, WideNode};
-use super::sphere::intersect_sphere;
-use super::traverse::{
-    Closest, Ray8Src, SLACK_ULPS, Scene, T_FAR_MARGIN, Work, leaf_spheres, leaf_triangles,
-    slab_test,
-};
-use super::triangle::{RayTri, intersect_group};
+use super::traverse::{Closest, Cull, Ray8Src, Scene, T_FAR_MARGIN, Work, slab_test};
+use super::triangle::RayTri;
 use super::{Lanes, WIDTH};
 
 /// Stack entry: a child, the rays that entered it and where they did.
@@ -67,15 +63,15 @@ pub(crate) struct Packet {
 }
 
 impl Packet {
-    /// Gathers rays `start..start + WIDTH` of `rays` whose bits are set in
-    /// `active` into a packet, or `None` if their directions do not all lie
-    /// in one octant.
+    /// Gathers the rays `start..start + WIDTH` of `rays` that the batch
+    /// cull let through (`cull.mask`) into a packet, or `None` if their
+    /// directions do not all lie in one octant. The cull's reciprocal
+    /// directions and slacks are the packet's, so packet and single-ray
+    /// box decisions agree exactly.
     #[inline(always)]
-    pub fn new(rays: &Ray8Src, start: usize, active: u32, extent: f32) -> Option<Packet> {
-        let end = (start + WIDTH).min(rays.t_max.len());
-        let load = |v: &[f32]| crate::lanes::load(&v[..end], start);
-        let dir = [load(rays.dir[0]), load(rays.dir[1]), load(rays.dir[2])];
-        let inv = dir.map(|d| Lanes::ONE / d);
+    pub fn new(rays: &Ray8Src, start: usize, cull: &Cull) -> Option<Packet> {
+        let active = cull.mask;
+        let inv = cull.inv();
         // The sign of 1/d (±∞ for ±0) picks the near plane, as in RayBox.
         let mut near = [0usize; 3];
         for axis in 0..3 {
@@ -88,12 +84,11 @@ impl Packet {
                 return None;
             };
         }
+        let end = (start + WIDTH).min(rays.t_max.len());
+        let load = |v: &[f32]| crate::lanes::load(&v[..end], start);
+        let dir = [load(rays.dir[0]), load(rays.dir[1]), load(rays.dir[2])];
         let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
-        // The same values as `traverse::may_hit` computes (equal for every
-        // ray that can hit: no NaN, and no −0 after `abs`).
-        let min_inv = inv[0].abs().fast_min(inv[1].abs()).fast_min(inv[2].abs());
-        let max_abs_o = o[0].abs().fast_max(o[1].abs()).fast_max(o[2].abs());
-        let slack = Lanes::splat(SLACK_ULPS) * (Lanes::splat(extent) + max_abs_o) * min_inv;
+        let slack = cull.slack();
         let lane = |v: &[Lanes; 3], i: usize| {
             Vec3::new(v[0].as_array()[i], v[1].as_array()[i], v[2].as_array()[i])
         };
@@ -227,26 +222,9 @@ pub(crate) fn closest(
                 continue;
             }
         } else {
-            let (first, count) = (child.index(), child.count());
             for i in lanes(mask) {
-                let (o, d) = (packet.org[i], packet.dir[i]);
-                if child.is_sphere() {
-                    leaf_spheres(
-                        &scene.spheres[first..first + count],
-                        o,
-                        d,
-                        &mut best[i],
-                        &mut work[i],
-                    );
-                } else {
-                    leaf_triangles(
-                        &scene.tri_groups[first..first + count],
-                        tri[i].get_or_insert_with(|| RayTri::new(o, d)),
-                        &mut best[i],
-                        &mut work[i],
-                        true,
-                    );
-                }
+                let ray = (packet.org[i], packet.dir[i]);
+                scene.leaf_closest(child, ray, &mut tri[i], &mut best[i], &mut work[i]);
             }
             t_best = Lanes::from(best.map(|b| b.t));
         }
@@ -292,22 +270,9 @@ pub(crate) fn any(
                 continue;
             }
         } else {
-            let (first, count) = (child.index(), child.count());
             for i in lanes(mask) {
-                let (o, d) = (packet.org[i], packet.dir[i]);
-                let hit = if child.is_sphere() {
-                    scene.spheres[first..first + count].iter().any(|s| {
-                        work[i].prims += 1;
-                        intersect_sphere(s, o, d, t_max[i]).is_some()
-                    })
-                } else {
-                    let tri = tri[i].get_or_insert_with(|| RayTri::new(o, d));
-                    scene.tri_groups[first..first + count].iter().any(|g| {
-                        work[i].prims += g.len();
-                        intersect_group(g, tri, t_max[i]).mask != 0
-                    })
-                };
-                if hit {
+                let ray = (packet.org[i], packet.dir[i], t_max[i]);
+                if scene.leaf_occludes(child, ray, &mut tri[i], &mut work[i]) {
                     open &= !(1 << i);
                 }
             }

@@ -147,6 +147,18 @@ pub(crate) struct Cull {
 }
 
 impl Cull {
+    /// Reciprocal directions of the eight lanes, per axis.
+    #[inline(always)]
+    pub fn inv(&self) -> [Lanes; 3] {
+        self.inv.map(Lanes::from)
+    }
+
+    /// Absolute cull slack of the eight lanes.
+    #[inline(always)]
+    pub fn slack(&self) -> Lanes {
+        Lanes::from(self.slack)
+    }
+
     /// Slab-test constants of the ray in `lane`, whose origin is `o`: the
     /// values the cull computed, so box decisions agree exactly.
     #[inline(always)]
@@ -281,17 +293,9 @@ pub(crate) fn new_stack() -> Stack {
 
 /// Tests a ray against a triangle leaf, narrowing `best`.
 #[inline(always)]
-pub(crate) fn leaf_triangles(
-    groups: &[TriGroup],
-    tri: &RayTri,
-    best: &mut Closest,
-    work: &mut Work,
-    count_work: bool,
-) {
+fn leaf_triangles(groups: &[TriGroup], tri: &RayTri, best: &mut Closest, work: &mut Work) {
     for g in groups {
-        if count_work {
-            work.prims += g.len();
-        }
+        work.prims += g.len();
         let h = intersect_group(g, tri, best.t);
         let mut mask = h.mask;
         if mask == 0 {
@@ -316,14 +320,9 @@ pub(crate) fn leaf_triangles(
     }
 }
 
+/// Tests a ray against a sphere leaf, narrowing `best`.
 #[inline(always)]
-pub(crate) fn leaf_spheres(
-    spheres: &[PackedSphere],
-    o: Vec3,
-    d: Vec3,
-    best: &mut Closest,
-    work: &mut Work,
-) {
+fn leaf_spheres(spheres: &[PackedSphere], o: Vec3, d: Vec3, best: &mut Closest, work: &mut Work) {
     for s in spheres {
         work.prims += 1;
         if let Some(t) = intersect_sphere(s, o, d, best.t)
@@ -337,6 +336,78 @@ pub(crate) fn leaf_spheres(
             };
         }
     }
+}
+
+impl Scene<'_> {
+    /// Tests one ray against the primitives of `leaf`, narrowing `best`.
+    /// `tri` holds the ray's triangle-test setup, made at its first
+    /// triangle leaf (most camera rays never reach one).
+    #[inline(always)]
+    pub fn leaf_closest(
+        &self,
+        leaf: ChildRef,
+        (o, d): (Vec3, Vec3),
+        tri: &mut Option<RayTri>,
+        best: &mut Closest,
+        work: &mut Work,
+    ) {
+        let items = leaf.index()..leaf.index() + leaf.count();
+        if leaf.is_sphere() {
+            leaf_spheres(&self.spheres[items], o, d, best, work);
+        } else {
+            let tri = tri.get_or_insert_with(|| RayTri::new(o, d));
+            leaf_triangles(&self.tri_groups[items], tri, best, work);
+        }
+    }
+
+    /// Whether one ray hits any primitive of `leaf` within `[0, t_max]`
+    /// (stops at the first); `tri` as for [`leaf_closest`](Self::leaf_closest).
+    #[inline(always)]
+    pub fn leaf_occludes(
+        &self,
+        leaf: ChildRef,
+        (o, d, t_max): (Vec3, Vec3, f32),
+        tri: &mut Option<RayTri>,
+        work: &mut Work,
+    ) -> bool {
+        let items = leaf.index()..leaf.index() + leaf.count();
+        if leaf.is_sphere() {
+            spheres_occlude(&self.spheres[items], o, d, t_max, work)
+        } else {
+            let tri = tri.get_or_insert_with(|| RayTri::new(o, d));
+            triangles_occlude(&self.tri_groups[items], tri, t_max, work)
+        }
+    }
+}
+
+/// Whether the ray hits any triangle of `groups` within `[0, t_max]`.
+#[inline(always)]
+fn triangles_occlude(groups: &[TriGroup], tri: &RayTri, t_max: f32, work: &mut Work) -> bool {
+    for g in groups {
+        work.prims += g.len();
+        if intersect_group(g, tri, t_max).mask != 0 {
+            return true;
+        }
+    }
+    false
+}
+
+/// Whether the ray hits any of `spheres` within `[0, t_max]`.
+#[inline(always)]
+fn spheres_occlude(
+    spheres: &[PackedSphere],
+    o: Vec3,
+    d: Vec3,
+    t_max: f32,
+    work: &mut Work,
+) -> bool {
+    for s in spheres {
+        work.prims += 1;
+        if intersect_sphere(s, o, d, t_max).is_some() {
+            return true;
+        }
+    }
+    false
 }
 
 /// Sorts the children of `node` hit by the ray (`mask`, entry distances
@@ -446,18 +517,7 @@ pub(crate) fn closest(
                 continue;
             }
         } else {
-            let (first, count) = (current.index(), current.count());
-            if current.is_sphere() {
-                leaf_spheres(&scene.spheres[first..first + count], o, d, &mut best, work);
-            } else {
-                leaf_triangles(
-                    &scene.tri_groups[first..first + count],
-                    tri.get_or_insert_with(|| RayTri::new(o, d)),
-                    &mut best,
-                    work,
-                    true,
-                );
-            }
+            scene.leaf_closest(current, (o, d), &mut tri, &mut best, work);
         }
         // Pop the next child that is not farther than the nearest hit so far.
         loop {
@@ -501,24 +561,8 @@ pub(crate) fn any(
                 current = push_unordered(node, mask, stack, &mut sp);
                 continue;
             }
-        } else {
-            let (first, count) = (current.index(), current.count());
-            if current.is_sphere() {
-                for s in &scene.spheres[first..first + count] {
-                    work.prims += 1;
-                    if intersect_sphere(s, o, d, t_max).is_some() {
-                        return true;
-                    }
-                }
-            } else {
-                let tri = tri.get_or_insert_with(|| RayTri::new(o, d));
-                for g in &scene.tri_groups[first..first + count] {
-                    work.prims += g.len();
-                    if intersect_group(g, tri, t_max).mask != 0 {
-                        return true;
-                    }
-                }
-            }
+        } else if scene.leaf_occludes(current, (o, d, t_max), &mut tri, work) {
+            return true;
         }
         if sp == 0 {
             return false;
@@ -542,7 +586,7 @@ pub(crate) fn closest_brute(
         return best;
     }
     let tri = RayTri::new(o, d);
-    leaf_triangles(groups, &tri, &mut best, work, true);
+    leaf_triangles(groups, &tri, &mut best, work);
     leaf_spheres(spheres, o, d, &mut best, work);
     best
 }
@@ -559,18 +603,6 @@ pub(crate) fn any_brute(
     if never_hits(o, d, t_max) {
         return false;
     }
-    let tri = RayTri::new(o, d);
-    for g in groups {
-        work.prims += g.len();
-        if intersect_group(g, &tri, t_max).mask != 0 {
-            return true;
-        }
-    }
-    for s in spheres {
-        work.prims += 1;
-        if intersect_sphere(s, o, d, t_max).is_some() {
-            return true;
-        }
-    }
-    false
+    triangles_occlude(groups, &RayTri::new(o, d), t_max, work)
+        || spheres_occlude(spheres, o, d, t_max, work)
 }
