@@ -1,5 +1,6 @@
-//! Eight-lane loads and stores between structure-of-arrays buffers and
-//! `wide::f32x8` registers.
+//! Eight lanes at a time: loads and stores between structure-of-arrays
+//! buffers and `wide::f32x8` registers, and [`Vec3x8`], eight 3-vectors
+//! one register per axis, for the stages that shade eight paths at once.
 //!
 //! A batch's last group of lanes may be partial, so the natural
 //! `f32x8::from(&v[start..end])` takes a slice of run-time length, which
@@ -7,7 +8,11 @@
 //! every group — millions of calls per render. These take a fixed-size
 //! path for full groups and the slice path only for the tail.
 
-use wide::f32x8;
+use glam::Vec3;
+use wide::{f32x8, i32x8};
+
+/// Lanes per register.
+pub const LANES: usize = 8;
 
 /// Lanes `start..start + 8` of `v`; past its end, zeros.
 #[inline(always)]
@@ -31,6 +36,225 @@ pub fn store(v: &mut [f32], start: usize, x: f32x8) {
             let n = tail.len();
             tail.copy_from_slice(&x.to_array()[..n]);
         }
+    }
+}
+
+/// Lane masks as bits (lane `l` is bit `l`), lowest lane first.
+#[inline(always)]
+pub fn each(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            lane
+        })
+    })
+}
+
+/// The bits of `x`, as integers (for sign and ULP tricks).
+#[inline(always)]
+pub fn to_bits(x: f32x8) -> i32x8 {
+    wide::bytemuck::cast(x)
+}
+
+/// The floats with bit patterns `x`.
+#[inline(always)]
+pub fn from_bits(x: i32x8) -> f32x8 {
+    wide::bytemuck::cast(x)
+}
+
+/// Eight 3-vectors, one register per axis. The arithmetic is glam's,
+/// operation for operation (dot products summed x + y + z, maxima that
+/// ignore NaN like `f32::max`), so a lane holds exactly what the same
+/// expression on `Vec3` would give.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Vec3x8 {
+    pub x: f32x8,
+    pub y: f32x8,
+    pub z: f32x8,
+}
+
+impl Vec3x8 {
+    pub const ZERO: Vec3x8 = Vec3x8 {
+        x: f32x8::ZERO,
+        y: f32x8::ZERO,
+        z: f32x8::ZERO,
+    };
+
+    #[inline(always)]
+    pub fn new(x: f32x8, y: f32x8, z: f32x8) -> Self {
+        Vec3x8 { x, y, z }
+    }
+
+    /// `v` in every lane.
+    #[inline(always)]
+    pub fn splat(v: Vec3) -> Self {
+        Vec3x8::new(f32x8::splat(v.x), f32x8::splat(v.y), f32x8::splat(v.z))
+    }
+
+    /// Lanes `start..start + 8` of a structure-of-arrays vector (zeros past its end).
+    #[inline(always)]
+    pub fn load(axes: [&[f32]; 3], start: usize) -> Self {
+        Vec3x8::new(
+            load(axes[0], start),
+            load(axes[1], start),
+            load(axes[2], start),
+        )
+    }
+
+    /// Writes the lanes to `axes[k][start..]`, as many as fit.
+    #[inline(always)]
+    pub fn store(self, axes: [&mut [f32]; 3], start: usize) {
+        let [x, y, z] = axes;
+        store(x, start, self.x);
+        store(y, start, self.y);
+        store(z, start, self.z);
+    }
+
+    /// The vectors of `v` (up to eight; zeros past its end), one per lane.
+    #[inline(always)]
+    pub fn gather(v: &[Vec3]) -> Self {
+        Vec3x8::from_fn(v.len().min(LANES), |lane| v[lane])
+    }
+
+    /// `f(lane)` in the first `n` lanes, zeros in the rest. (Written into
+    /// per-axis arrays directly: going through a `[Vec3; 8]` compiled to
+    /// a second copy.)
+    #[inline(always)]
+    pub fn from_fn(n: usize, f: impl Fn(usize) -> Vec3) -> Self {
+        let mut xyz = [[0.0f32; LANES]; 3];
+        #[allow(clippy::needless_range_loop)] // `lane` indexes three arrays
+        for lane in 0..n.min(LANES) {
+            let p = f(lane);
+            (xyz[0][lane], xyz[1][lane], xyz[2][lane]) = (p.x, p.y, p.z);
+        }
+        Vec3x8::new(xyz[0].into(), xyz[1].into(), xyz[2].into())
+    }
+
+    /// The vector in `lane`.
+    #[inline(always)]
+    pub fn lane(&self, lane: usize) -> Vec3 {
+        Vec3::new(
+            self.x.as_array()[lane],
+            self.y.as_array()[lane],
+            self.z.as_array()[lane],
+        )
+    }
+
+    /// The eight vectors.
+    #[inline(always)]
+    pub fn to_array(self) -> [Vec3; LANES] {
+        let (x, y, z) = (self.x.to_array(), self.y.to_array(), self.z.to_array());
+        std::array::from_fn(|l| Vec3::new(x[l], y[l], z[l]))
+    }
+
+    #[inline(always)]
+    pub fn dot(self, o: Self) -> f32x8 {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+
+    #[inline(always)]
+    pub fn length_squared(self) -> f32x8 {
+        self.dot(self)
+    }
+
+    #[inline(always)]
+    pub fn cross(self, o: Self) -> Self {
+        Vec3x8::new(
+            self.y * o.z - o.y * self.z,
+            self.z * o.x - o.z * self.x,
+            self.x * o.y - o.x * self.y,
+        )
+    }
+
+    #[inline(always)]
+    pub fn abs(self) -> Self {
+        Vec3x8::new(self.x.abs(), self.y.abs(), self.z.abs())
+    }
+
+    /// Largest component, ignoring NaN as `f32::max` does.
+    #[inline(always)]
+    pub fn max_element(self) -> f32x8 {
+        self.x.max(self.y).max(self.z)
+    }
+
+    /// Componentwise maximum, ignoring NaN as `f32::max` does.
+    #[inline(always)]
+    pub fn max(self, o: Self) -> Self {
+        Vec3x8::new(self.x.max(o.x), self.y.max(o.y), self.z.max(o.z))
+    }
+
+    /// All-ones lanes where every component is finite.
+    #[inline(always)]
+    pub fn is_finite(self) -> f32x8 {
+        self.x.is_finite() & self.y.is_finite() & self.z.is_finite()
+    }
+
+    /// `if_true` in the lanes where `mask` is all ones, else `if_false`.
+    #[inline(always)]
+    pub fn select(mask: f32x8, if_true: Self, if_false: Self) -> Self {
+        Vec3x8::new(
+            mask.select(if_true.x, if_false.x),
+            mask.select(if_true.y, if_false.y),
+            mask.select(if_true.z, if_false.z),
+        )
+    }
+
+    /// `x / |x|` and the lanes where that is a usable unit vector
+    /// (finite, non-zero length).
+    #[inline(always)]
+    pub fn normalize(self) -> (Self, f32x8) {
+        let rcp = f32x8::ONE / self.length_squared().sqrt();
+        (self * rcp, rcp.is_finite() & rcp.simd_gt(f32x8::ZERO))
+    }
+}
+
+impl std::ops::Add for Vec3x8 {
+    type Output = Vec3x8;
+    #[inline(always)]
+    fn add(self, o: Vec3x8) -> Vec3x8 {
+        Vec3x8::new(self.x + o.x, self.y + o.y, self.z + o.z)
+    }
+}
+
+impl std::ops::Sub for Vec3x8 {
+    type Output = Vec3x8;
+    #[inline(always)]
+    fn sub(self, o: Vec3x8) -> Vec3x8 {
+        Vec3x8::new(self.x - o.x, self.y - o.y, self.z - o.z)
+    }
+}
+
+/// Componentwise product.
+impl std::ops::Mul for Vec3x8 {
+    type Output = Vec3x8;
+    #[inline(always)]
+    fn mul(self, o: Vec3x8) -> Vec3x8 {
+        Vec3x8::new(self.x * o.x, self.y * o.y, self.z * o.z)
+    }
+}
+
+impl std::ops::Mul<f32x8> for Vec3x8 {
+    type Output = Vec3x8;
+    #[inline(always)]
+    fn mul(self, s: f32x8) -> Vec3x8 {
+        Vec3x8::new(self.x * s, self.y * s, self.z * s)
+    }
+}
+
+impl std::ops::Div<f32x8> for Vec3x8 {
+    type Output = Vec3x8;
+    #[inline(always)]
+    fn div(self, s: f32x8) -> Vec3x8 {
+        Vec3x8::new(self.x / s, self.y / s, self.z / s)
+    }
+}
+
+impl std::ops::Neg for Vec3x8 {
+    type Output = Vec3x8;
+    #[inline(always)]
+    fn neg(self) -> Vec3x8 {
+        Vec3x8::new(-self.x, -self.y, -self.z)
     }
 }
 

@@ -6,9 +6,11 @@
 //! source per scene, their triangles chosen in proportion to area.
 
 use glam::Vec3;
+use wide::f32x8;
 
 use super::bsdf::Surface;
-use crate::ray::{gamma, offset_by};
+use crate::lanes::Vec3x8;
+use crate::ray::{gamma, offset_by, offset_by_x8};
 use crate::sampling::warp;
 use crate::scene::{Light, Scene};
 
@@ -90,10 +92,8 @@ impl LightSource {
     /// and cosine are measured from `p`; the shadow ray starts at `origin`,
     /// `p` moved off its surface. `None` when the light cannot reach `p`.
     ///
-    /// Inlined into the shading loop: called out of line, its vector
-    /// arguments went through memory and the loads stalled on the caller's
-    /// narrower stores (store-to-load forwarding failed).
-    #[inline(always)]
+    /// The shading stage calls this only for the lights without an
+    /// eight-lane form ([`sample_x8`](Self::sample_x8)).
     pub fn sample(
         &self,
         p: Vec3,
@@ -104,65 +104,6 @@ impl LightSource {
         w: f32,
     ) -> Option<LightSample> {
         match self {
-            LightSource::Point {
-                position,
-                intensity,
-            } => {
-                let d = *position - p;
-                let dist2 = d.length_squared();
-                let cos_surface = n.dot(d) / dist2.sqrt();
-                (dist2 > 0.0 && cos_surface > 0.0).then(|| LightSample {
-                    direction: *position - origin,
-                    t_max: 1.0,
-                    weight: *intensity / dist2,
-                    cos_surface,
-                })
-            }
-            LightSource::Directional { to_light, radiance } => {
-                let cos_surface = n.dot(*to_light);
-                (cos_surface > 0.0).then_some(LightSample {
-                    direction: *to_light,
-                    t_max: f32::INFINITY,
-                    weight: *radiance,
-                    cos_surface,
-                })
-            }
-            LightSource::Rectangle {
-                center,
-                normal,
-                dim_x,
-                dim_y,
-                radiance,
-                area,
-                q_err,
-                extent,
-            } => {
-                let q = *center + (u - 0.5) * *dim_x + (v - 0.5) * *dim_y;
-                // One-sided: light leaves toward `normal` only.
-                connect(
-                    p,
-                    origin,
-                    n,
-                    (q, *q_err, *extent),
-                    *normal,
-                    *area,
-                    *radiance,
-                )
-            }
-            LightSource::Hemisphere { radiance } => {
-                // Cosine-weighted about the surface normal; only upward directions see the sky.
-                let d = warp::to_world(warp::cosine_hemisphere(u, v), n);
-                let cos = d.dot(n);
-                if d.y <= 0.0 || cos <= 0.0 {
-                    return None;
-                }
-                Some(LightSample {
-                    direction: d,
-                    t_max: f32::INFINITY,
-                    weight: *radiance * (std::f32::consts::PI / cos),
-                    cos_surface: cos,
-                })
-            }
             LightSource::Sphere {
                 center,
                 radius,
@@ -184,17 +125,129 @@ impl LightSource {
                 // Two-sided: the normal that faces p.
                 let ng = (b - a).cross(c - a).normalize_or_zero();
                 let facing = if ng.dot(p - q) >= 0.0 { ng } else { -ng };
-                connect(
-                    p,
-                    origin,
-                    n,
-                    (q, q_err, extent.max_element()),
-                    facing,
+                let x8 = Vec3x8::splat;
+                connect_x8(
+                    (x8(p), x8(origin), x8(n)),
+                    (
+                        x8(q),
+                        f32x8::splat(q_err),
+                        f32x8::splat(extent.max_element()),
+                    ),
+                    x8(facing),
                     *total_area,
-                    radiance[i],
+                    x8(radiance[i]),
+                )
+                .lane(0)
+            }
+            _ => self
+                .sample_x8(
+                    (Vec3x8::splat(p), Vec3x8::splat(origin), Vec3x8::splat(n)),
+                    f32x8::splat(u),
+                    f32x8::splat(v),
+                )
+                .and_then(|s| s.lane(0)),
+        }
+    }
+
+    /// [`sample`](Self::sample) at eight shading points at once, for the
+    /// lights that need no third random number and have an eight-lane
+    /// form (point, directional, rectangle, hemisphere: all but spheres
+    /// and meshes, which return `None`). This is the definition of those
+    /// lights' sampling; the one-point `sample` runs it in one lane.
+    #[inline(always)]
+    pub fn sample_x8(
+        &self,
+        (p, origin, n): (Vec3x8, Vec3x8, Vec3x8),
+        u: f32x8,
+        v: f32x8,
+    ) -> Option<LightSamples> {
+        let x8 = Vec3x8::splat;
+        let zero = f32x8::ZERO;
+        Some(match self {
+            LightSource::Point {
+                position,
+                intensity,
+            } => {
+                let d = x8(*position) - p;
+                let dist2 = d.length_squared();
+                let cos_surface = n.dot(d) / dist2.sqrt();
+                LightSamples {
+                    direction: x8(*position) - origin,
+                    t_max: f32x8::ONE,
+                    weight: x8(*intensity) / dist2,
+                    cos_surface,
+                    valid: (dist2.simd_gt(zero) & cos_surface.simd_gt(zero)).to_bitmask(),
+                }
+            }
+            LightSource::Directional { to_light, radiance } => {
+                let cos_surface = n.dot(x8(*to_light));
+                LightSamples {
+                    direction: x8(*to_light),
+                    t_max: f32x8::splat(f32::INFINITY),
+                    weight: x8(*radiance),
+                    cos_surface,
+                    valid: cos_surface.simd_gt(zero).to_bitmask(),
+                }
+            }
+            LightSource::Rectangle {
+                center,
+                normal,
+                dim_x,
+                dim_y,
+                radiance,
+                area,
+                q_err,
+                extent,
+            } => {
+                let half = f32x8::splat(0.5);
+                let q = x8(*center) + x8(*dim_x) * (u - half) + x8(*dim_y) * (v - half);
+                // One-sided: light leaves toward `normal` only.
+                connect_x8(
+                    (p, origin, n),
+                    (q, f32x8::splat(*q_err), f32x8::splat(*extent)),
+                    x8(*normal),
+                    *area,
+                    x8(*radiance),
                 )
             }
-        }
+            LightSource::Hemisphere { radiance } => {
+                // Cosine-weighted about the surface normal; only upward directions see the sky.
+                let d = warp::to_world_x8(warp::cosine_hemisphere_x8(u, v), n);
+                let cos = d.dot(n);
+                LightSamples {
+                    direction: d,
+                    t_max: f32x8::splat(f32::INFINITY),
+                    weight: x8(*radiance) * (f32x8::splat(std::f32::consts::PI) / cos),
+                    cos_surface: cos,
+                    valid: !(d.y.simd_le(zero) | cos.simd_le(zero)).to_bitmask() & 0xff,
+                }
+            }
+            LightSource::Sphere { .. } | LightSource::Mesh { .. } => return None,
+        })
+    }
+}
+
+/// Eight [`LightSample`]s, one per lane; `valid` has bit `l` set where
+/// lane `l`'s light can reach its shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSamples {
+    pub direction: Vec3x8,
+    pub t_max: f32x8,
+    pub weight: Vec3x8,
+    pub cos_surface: f32x8,
+    pub valid: u32,
+}
+
+impl LightSamples {
+    /// The sample of `lane`, if valid.
+    #[inline]
+    pub fn lane(&self, lane: usize) -> Option<LightSample> {
+        (self.valid & (1 << lane) != 0).then(|| LightSample {
+            direction: self.direction.lane(lane),
+            t_max: self.t_max.as_array()[lane],
+            weight: self.weight.lane(lane),
+            cos_surface: self.cos_surface.as_array()[lane],
+        })
     }
 }
 
@@ -282,34 +335,31 @@ fn sample_sphere(
 /// `origin` to just in front of `q`, which lies within `q_err` of the
 /// emitter's triangles, all of whose vertices are within `extent` of `q`.
 #[inline(always)]
-fn connect(
-    p: Vec3,
-    origin: Vec3,
-    n: Vec3,
-    (q, q_err, extent): (Vec3, f32, f32),
-    n_light: Vec3,
+fn connect_x8(
+    (p, origin, n): (Vec3x8, Vec3x8, Vec3x8),
+    (q, q_err, extent): (Vec3x8, f32x8, f32x8),
+    n_light: Vec3x8,
     area: f32,
-    radiance: Vec3,
-) -> Option<LightSample> {
+    radiance: Vec3x8,
+) -> LightSamples {
     let d = q - p;
     let dist2 = d.length_squared();
-    let inv_dist = dist2.sqrt().recip();
+    let inv_dist = f32x8::ONE / dist2.sqrt();
     let cos_light = -n_light.dot(d) * inv_dist;
     let cos_surface = n.dot(d) * inv_dist;
-    if !(cos_light > 0.0 && cos_surface > 0.0) {
-        return None;
-    }
+    let valid = cos_light.simd_gt(f32x8::ZERO) & cos_surface.simd_gt(f32x8::ZERO);
     // End the shadow ray just in front of the emitter so it cannot hit it:
     // beyond q's own error, and beyond the rounding of the ray/triangle
     // test from `origin`, ~γ₈ times the distance to the emitter's far corner.
     let reach = (q - origin).abs().max_element() + extent;
-    let end = offset_by(q, n_light, q_err + gamma(8) * reach);
-    Some(LightSample {
+    let end = offset_by_x8(q, n_light, q_err + f32x8::splat(gamma(8)) * reach);
+    LightSamples {
         direction: end - origin,
-        t_max: 1.0,
-        weight: radiance * (area * cos_light * inv_dist * inv_dist),
+        t_max: f32x8::ONE,
+        weight: radiance * (f32x8::splat(area) * cos_light * inv_dist * inv_dist),
         cos_surface,
-    })
+        valid: valid.to_bitmask(),
+    }
 }
 
 /// Every light source of a scene.
@@ -403,5 +453,82 @@ impl LightSet {
 
     pub fn is_empty(&self) -> bool {
         self.sources.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every light with an eight-lane form gives, in each lane, what the
+    /// one-point `sample` gives for that lane's inputs.
+    #[test]
+    fn lanes_sample_independently() {
+        let lights = [
+            LightSource::Point {
+                position: Vec3::new(0.0, 2.0, 0.0),
+                intensity: Vec3::new(3.0, 2.0, 1.0),
+            },
+            LightSource::Directional {
+                to_light: Vec3::new(0.0, 0.6, 0.8),
+                radiance: Vec3::ONE,
+            },
+            LightSource::Rectangle {
+                center: Vec3::new(0.0, 2.0, 0.0),
+                normal: Vec3::NEG_Y,
+                dim_x: Vec3::new(0.5, 0.0, 0.0),
+                dim_y: Vec3::new(0.0, 0.0, 0.25),
+                radiance: Vec3::splat(4.0),
+                area: 0.125,
+                q_err: gamma(5) * 2.5,
+                extent: 0.5,
+            },
+            LightSource::Hemisphere {
+                radiance: Vec3::new(0.5, 0.7, 1.0),
+            },
+        ];
+        // Points below, beside and above the lights, normals up and down.
+        let p = Vec3x8::from_fn(8, |l| {
+            Vec3::new(l as f32 * 0.3 - 1.0, (l % 3) as f32, 0.1 * l as f32)
+        });
+        let n = Vec3x8::from_fn(8, |l| {
+            if l % 4 == 3 {
+                Vec3::NEG_Y
+            } else {
+                Vec3::new(0.1 * l as f32, 1.0, 0.0).normalize()
+            }
+        });
+        let origin = p + n * f32x8::splat(1e-4);
+        let u = f32x8::from([0.0, 0.1, 0.25, 0.5, 0.6, 0.75, 0.9, 0.99]);
+        let v = f32x8::from([0.3, 0.99, 0.0, 0.5, 0.12, 0.8, 0.45, 0.7]);
+        for light in &lights {
+            let s = light.sample_x8((p, origin, n), u, v).unwrap();
+            let mut valid = 0;
+            for l in 0..8 {
+                let one = light.sample(
+                    p.lane(l),
+                    origin.lane(l),
+                    n.lane(l),
+                    u.as_array()[l],
+                    v.as_array()[l],
+                    0.0,
+                );
+                let bits = |s: &LightSample| {
+                    let v = [s.direction, s.weight].map(|v| v.to_array().map(f32::to_bits));
+                    (v, s.t_max.to_bits(), s.cos_surface.to_bits())
+                };
+                assert_eq!(
+                    s.lane(l).as_ref().map(bits),
+                    one.as_ref().map(bits),
+                    "{light:?} lane {l}"
+                );
+                valid += one.is_some() as u32;
+            }
+            // The inputs reach both outcomes for every light.
+            assert!(
+                0 < valid && valid < 8,
+                "{light:?}: {valid} of 8 lanes valid"
+            );
+        }
     }
 }

@@ -249,10 +249,7 @@ impl SampleStream {
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
         self.dimension += 1;
-        to_unit_float(hash32(
-            self.base
-                .wrapping_add(self.dimension.wrapping_mul(0x9e37_79b9)),
-        ))
+        to_unit_float(weyl_hash(self.base, self.dimension))
     }
 
     /// The next two-dimensional draw, from the next Sobol dimension pair.
@@ -372,6 +369,18 @@ impl VertexDraws {
         }
     }
 
+    /// Draw `j` of block `b` of streams `start..start + 8` (zeros past the end).
+    #[inline]
+    pub fn lanes(&self, start: usize, b: usize, j: u32) -> (f32x8, f32x8) {
+        debug_assert!(j < self.counts[b] && start < self.streams);
+        let row = (self.first_slot[b] + j as usize) * self.streams;
+        let row = row..row + self.streams;
+        (
+            lanes::load(&self.u[row.clone()], start),
+            lanes::load(&self.v[row], start),
+        )
+    }
+
     /// Draw `j` of block `b` of stream `i`.
     #[inline]
     pub fn point(&self, i: usize, b: usize, j: u32) -> (f32, f32) {
@@ -379,6 +388,26 @@ impl VertexDraws {
         let at = (self.first_slot[b] + j as usize) * self.streams + i;
         (self.u[at], self.v[at])
     }
+}
+
+/// Dimension `dimension` of the independent draws based at `base`.
+#[inline(always)]
+fn weyl_hash<W: Word>(base: W, dimension: W) -> W {
+    hash(base.add(dimension.mul(W::splat(0x9e37_79b9))))
+}
+
+/// [`SampleStream::next_1d`] of the streams picked by `mask` (bit `l`
+/// for `streams[l]`), eight at once; the other lanes are unspecified and
+/// their streams untouched.
+#[inline]
+pub fn next_1d_x8(streams: &mut [SampleStream], mask: u32) -> f32x8 {
+    let (mut base, mut dimension) = ([0u32; 8], [0u32; 8]);
+    for lane in lanes::each(mask) {
+        let s = &mut streams[lane];
+        s.dimension += 1;
+        (base[lane], dimension[lane]) = (s.base, s.dimension);
+    }
+    to_unit_floats(weyl_hash(u32x8::from(base), u32x8::from(dimension)))
 }
 
 /// The counters of up to eight streams, one per lane (zeros past the end).
@@ -590,6 +619,9 @@ mod tests {
                             block.point(j),
                             "stream {i} block {b} draw {j}"
                         );
+                        let (u, v) = draws.lanes(i / 8 * 8, b, j);
+                        let lane = i % 8;
+                        assert_eq!((u.as_array()[lane], v.as_array()[lane]), block.point(j));
                     }
                 }
                 assert_eq!(stream.pair, streams[i].pair);
@@ -598,9 +630,33 @@ mod tests {
     }
 
     #[test]
+    fn batched_1d_draws_are_the_scalar_draws() {
+        // Streams at different dimensions; only the masked lanes draw.
+        let mut streams: Vec<SampleStream> = (0..8u32)
+            .map(|i| {
+                let mut s = SampleStream::new(5, 30 + i, i * 77);
+                for _ in 0..i {
+                    s.next_1d();
+                }
+                s
+            })
+            .collect();
+        let mut expected = streams.clone();
+        for mask in [0xffu32, 0b1010_0110, 0b1, 0] {
+            let x = next_1d_x8(&mut streams, mask);
+            for (lane, e) in expected.iter_mut().enumerate() {
+                if mask & (1 << lane) != 0 {
+                    assert_eq!(x.as_array()[lane], e.next_1d(), "lane {lane}");
+                }
+                assert_eq!(streams[lane].dimension, e.dimension, "lane {lane}");
+            }
+        }
+    }
+
+    #[test]
     fn batched_pixel_offsets_are_the_scalar_ones() {
         let streams: Vec<SampleStream> = (0..11u32)
-            .map(|i| SampleStream::new(4, 7 * i, i * 0x9e37_79b9))
+            .map(|i| SampleStream::new(4, 7 * i, i.wrapping_mul(0x9e37_79b9)))
             .collect();
         for group in streams.chunks(8) {
             let (x, y) = pixel_offsets(group);

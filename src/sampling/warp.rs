@@ -1,51 +1,73 @@
 //! Warps from the unit square to directions and surfaces.
 
 use glam::{Vec2, Vec3};
+use wide::{f32x8, i32x8};
+
+use crate::lanes::{self, Vec3x8};
 
 /// `(cos 2πv, sin 2πv)`: the unit vector at `v` turns, for `v` in [0, 1].
 ///
 /// Inline, with no call into libm (whose `sincosf` was 2–3% of a render,
 /// and whose call made the shading loop spill its registers): `4v` is
-/// rounded to the nearest quarter turn `q`, the rest `θ ∈ [−π/4, π/4]`
-/// goes through Taylor polynomials of degree 9 and 10 (truncation error
-/// below 2e-9 — θ¹¹/11! and θ¹²/12! at π/4 — far under the f32 rounding
-/// of ~6e-8), and the quarter turns
-/// are applied exactly by swapping and negating.
-#[inline]
-pub fn unit_circle(v: f32) -> (f32, f32) {
-    let x = 4.0 * v;
-    let q = x.round();
-    let theta = (x - q) * std::f32::consts::FRAC_PI_2;
+/// rounded to the nearest quarter turn `q` (ties to even), the rest
+/// `θ ∈ [−π/4, π/4]` goes through Taylor polynomials of degree 9 and 10
+/// (truncation error below 2e-9 — θ¹¹/11! and θ¹²/12! at π/4 — far under
+/// the f32 rounding of ~6e-8), and the quarter turns are applied exactly
+/// by swapping and negating.
+#[inline(always)]
+pub fn unit_circle_x8(v: f32x8) -> (f32x8, f32x8) {
+    let x = f32x8::splat(4.0) * v;
+    let q = x.round_ties_even();
+    let theta = (x - q) * f32x8::splat(std::f32::consts::FRAC_PI_2);
     let t2 = theta * theta;
     // Horner form of the series; the constants are reciprocals folded at
     // compile time, so there is no division.
-    let term = |k: f32, rest: f32| 1.0 - t2 * (1.0 / k) * rest;
+    let term = |k: f32, rest: f32x8| f32x8::ONE - t2 * f32x8::splat(1.0 / k) * rest;
+    let one = f32x8::ONE;
     let sin = theta
         * term(
             2.0 * 3.0,
-            term(4.0 * 5.0, term(6.0 * 7.0, term(8.0 * 9.0, 1.0))),
+            term(4.0 * 5.0, term(6.0 * 7.0, term(8.0 * 9.0, one))),
         );
     let cos = term(
         1.0 * 2.0,
         term(
             3.0 * 4.0,
-            term(5.0 * 6.0, term(7.0 * 8.0, term(9.0 * 10.0, 1.0))),
+            term(5.0 * 6.0, term(7.0 * 8.0, term(9.0 * 10.0, one))),
         ),
     );
-    match (q as i32) & 3 {
-        0 => (cos, sin),
-        1 => (-sin, cos),
-        2 => (-cos, -sin),
-        _ => (sin, -cos),
-    }
+    // Quarter turn q: (cos, sin), (−sin, cos), (−cos, −sin), (sin, −cos).
+    let quarter = q.round_int();
+    let odd = lanes::from_bits((quarter & i32x8::ONE).simd_eq(i32x8::ONE));
+    let (a, b) = (odd.select(sin, cos), odd.select(cos, sin));
+    let sign_bit = |negate: i32x8| lanes::from_bits(negate << 30);
+    // Bit 1 of q + 1 is set for q = 1, 2 (negate the first); bit 1 of q
+    // for q = 2, 3 (negate the second). Shifted into the sign bit.
+    (
+        a ^ sign_bit((quarter + i32x8::ONE) & i32x8::splat(2)),
+        b ^ sign_bit(quarter & i32x8::splat(2)),
+    )
 }
 
-/// Cosine-weighted direction around +z; pdf = cos θ / π.
+/// [`unit_circle_x8`] for one value.
+#[inline]
+pub fn unit_circle(v: f32) -> (f32, f32) {
+    let (c, s) = unit_circle_x8(f32x8::splat(v));
+    (c.as_array()[0], s.as_array()[0])
+}
+
+/// Cosine-weighted directions around +z; pdf = cos θ / π.
+#[inline(always)]
+pub fn cosine_hemisphere_x8(u: f32x8, v: f32x8) -> Vec3x8 {
+    let r = u.sqrt();
+    let (c, s) = unit_circle_x8(v);
+    Vec3x8::new(r * c, r * s, (f32x8::ONE - u).max(f32x8::ZERO).sqrt())
+}
+
+/// [`cosine_hemisphere_x8`] for one pair.
 #[inline]
 pub fn cosine_hemisphere(u: f32, v: f32) -> Vec3 {
-    let r = u.sqrt();
-    let (c, s) = unit_circle(v);
-    Vec3::new(r * c, r * s, (1.0 - u).max(0.0).sqrt())
+    cosine_hemisphere_x8(f32x8::splat(u), f32x8::splat(v)).lane(0)
 }
 
 /// Uniform direction on the hemisphere around +z; pdf = 1 / 2π.
@@ -57,24 +79,32 @@ pub fn uniform_hemisphere(u: f32, v: f32) -> Vec3 {
     Vec3::new(r * c, r * s, z)
 }
 
-/// An orthonormal basis (t, b, n) around unit vector `n`
+/// Orthonormal bases (t, b, n) around unit vectors `n`
 /// (Duff et al., "Building an Orthonormal Basis, Revisited", 2017).
-#[inline]
-pub fn basis(n: Vec3) -> (Vec3, Vec3) {
-    let sign = 1.0f32.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
+#[inline(always)]
+pub fn basis_x8(n: Vec3x8) -> (Vec3x8, Vec3x8) {
+    // copysign(1, n.z), sign bit and all (−0 gives −1).
+    let sign_mask = lanes::from_bits(i32x8::splat(i32::MIN));
+    let sign = (n.z & sign_mask) | f32x8::ONE;
+    let a = -f32x8::ONE / (sign + n.z);
     let b = n.x * n.y * a;
     (
-        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+        Vec3x8::new(f32x8::ONE + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        Vec3x8::new(b, sign + n.y * n.y * a, -n.y),
     )
 }
 
-/// `local` (z up) expressed in the frame whose z axis is `n`.
+/// `local` (z up) expressed in the frames whose z axes are `n`.
+#[inline(always)]
+pub fn to_world_x8(local: Vec3x8, n: Vec3x8) -> Vec3x8 {
+    let (t, b) = basis_x8(n);
+    t * local.x + b * local.y + n * local.z
+}
+
+/// [`to_world_x8`] for one vector.
 #[inline]
 pub fn to_world(local: Vec3, n: Vec3) -> Vec3 {
-    let (t, b) = basis(n);
-    local.x * t + local.y * b + local.z * n
+    to_world_x8(Vec3x8::splat(local), Vec3x8::splat(n)).lane(0)
 }
 
 /// Uniform point on the unit disk, by Shirley and Chiu's concentric map
@@ -99,6 +129,49 @@ pub fn concentric_disk(u: f32, v: f32) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn frames_are_orthonormal_in_every_lane() {
+        // Normals near ±z (where the basis formula divides by sign + n.z),
+        // ±0 in z, and generic ones, each in its own lane.
+        let normals = [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, -1.0, -0.0),
+            Vec3::new(1e-4, -2e-4, -1.0).normalize(),
+            Vec3::new(0.3, 0.4, 0.866).normalize(),
+            Vec3::new(-0.6, 0.0, 0.8),
+            Vec3::new(0.2, -0.9, -0.3).normalize(),
+        ];
+        let n = Vec3x8::from_fn(8, |l| normals[l]);
+        let (t, b) = basis_x8(n);
+        for (l, &nl) in normals.iter().enumerate() {
+            let (t, b) = (t.lane(l), b.lane(l));
+            for (what, x) in [("|t|", t.length()), ("|b|", b.length())] {
+                assert!((x - 1.0).abs() < 1e-5, "lane {l}: {what} = {x}");
+            }
+            for (what, x) in [("t·b", t.dot(b)), ("t·n", t.dot(nl)), ("b·n", b.dot(nl))] {
+                assert!(x.abs() < 1e-5, "lane {l}: {what} = {x}");
+            }
+            // Right-handed, so local +z maps to n.
+            assert!((t.cross(b) - nl).length() < 1e-5, "lane {l}");
+            let w = to_world(Vec3::Z, nl);
+            assert!((w - nl).length() < 1e-6, "lane {l}: {w}");
+        }
+    }
+
+    #[test]
+    fn cosine_directions_are_unit_and_upward() {
+        for i in 0..=64 {
+            for j in 0..=64 {
+                let (u, v) = (i as f32 / 64.0, j as f32 / 64.0);
+                let d = cosine_hemisphere(u.min(0.99999994), v);
+                assert!((d.length() - 1.0).abs() < 1e-6, "({u}, {v}): {d}");
+                assert!(d.z >= 0.0);
+            }
+        }
+    }
 
     #[test]
     fn unit_circle_matches_sin_and_cos() {

@@ -7,12 +7,14 @@
 //! brought by next-event estimation at vertex `d` has bounced `d + 1` times.
 
 use glam::Vec3;
+use wide::{f32x8, i32x8};
 
 use crate::integrator::bsdf::Surface;
-use crate::integrator::lights::LightSet;
+use crate::integrator::lights::{LightSample, LightSamples, LightSet, LightSource};
 use crate::integrator::{Settings, View};
-use crate::ray::{Hits, offset_by};
-use crate::sampling::rng::VertexDraws;
+use crate::lanes::{self, LANES, Vec3x8};
+use crate::ray::{Hits, offset_by_x8};
+use crate::sampling::rng::{VertexDraws, next_1d_x8};
 use crate::sampling::warp;
 use crate::scene::Geometry;
 
@@ -24,6 +26,7 @@ use super::surface::SurfacePoints;
 pub struct ShadeScratch {
     draws: VertexDraws,
     surfaces: SurfacePoints,
+    candidates: Vec<Candidate>,
 }
 
 /// What the shade stage reads besides the paths.
@@ -61,6 +64,12 @@ const FIRST_LIGHT_BLOCK: usize = 1;
 
 /// Shades every path of the wave. Paths that missed or ended are marked
 /// not alive; live ones get their next ray.
+///
+/// Eight consecutive paths at a time: misses and emitter hits are handled
+/// path by path (a few operations each), then the diffuse hits among the
+/// eight — nearly all of them in a closed scene — are shaded together, one
+/// path per SIMD lane, reading the surface points and draws straight from
+/// their structure-of-arrays buffers.
 pub fn shade(
     inputs: &ShadeInputs,
     hits: &Hits,
@@ -70,96 +79,184 @@ pub fn shade(
     probes: &mut ShadowRays,
 ) {
     let settings = inputs.settings;
-    let ShadeScratch { draws, surfaces } = scratch;
+    let ShadeScratch {
+        draws,
+        surfaces,
+        candidates,
+    } = scratch;
     surfaces.compute(inputs.geometry, hits, &paths.rays);
-    if settings.view == View::Path {
-        draws.draw(&mut paths.stream, vertex_blocks(inputs));
+    if settings.view != View::Path {
+        show_view(settings.view, hits, surfaces, paths);
+        return;
     }
-    for i in 0..paths.len() {
-        let dir = paths.rays.direction(i);
-        if !hits.is_hit(i) {
-            on_miss(inputs, paths, i, dir);
+    draws.draw(&mut paths.stream, vertex_blocks(inputs));
+    let n = paths.len();
+    for start in (0..n).step_by(LANES) {
+        let end = (start + LANES).min(n);
+        let mut diffuse = 0u32;
+        let mut albedo = [Vec3::ZERO; LANES];
+        for i in start..end {
             paths.alive[i] = false;
-            continue;
-        }
-        let sp = surfaces.get(i);
-
-        match settings.view {
-            View::Normals => {
-                // The normal facing the viewer: outward on closed meshes, and
-                // into the room for the Cornell boxes' walls, as the
-                // reference shows them.
-                paths.radiance[i] = 0.5 * (sp.ns + Vec3::ONE);
-                paths.alive[i] = false;
+            if !hits.is_hit(i) {
+                on_miss(inputs, paths, i);
                 continue;
             }
-            View::BvhCost => {
-                paths.alive[i] = false;
-                continue;
-            }
-            View::Path => {}
-        }
-
-        let depth = paths.depth[i];
-        let surface = inputs.surfaces[inputs.geometry.material(hits.prim[i]) as usize];
-        match surface {
-            Surface::Emitter {
-                radiance,
-                one_sided,
-            } => {
-                let seen = !one_sided || sp.front;
-                if seen && (depth == 0 || paths.specular[i]) && settings.counts_bounce(depth) {
-                    paths.radiance[i] += paths.throughput[i] * radiance;
-                }
-                paths.alive[i] = false;
-            }
-            Surface::Diffuse { albedo } => {
-                let f = surface.f();
-                let p_out = offset_by(sp.p, sp.ng, sp.err);
-                if depth < settings.max_depth && settings.counts_bounce(depth + 1) {
-                    let beta = paths.throughput[i] * f;
-                    if settings.hemisphere {
-                        direct_hemisphere(inputs, draws, i, p_out, sp.ns, beta, probes);
-                    } else {
-                        direct_lights(inputs, paths, draws, i, (sp.p, p_out, sp.ns), beta, shadow);
+            let depth = paths.depth[i];
+            match inputs.surfaces[inputs.geometry.material(hits.prim[i]) as usize] {
+                Surface::Emitter {
+                    radiance,
+                    one_sided,
+                } => {
+                    let seen = !one_sided || surfaces.front(i);
+                    if seen && (depth == 0 || paths.specular[i]) && settings.counts_bounce(depth) {
+                        paths.radiance[i] += paths.throughput[i] * radiance;
                     }
                 }
-                paths.alive[i] = depth + 1 < settings.max_depth
-                    && continue_path(settings, paths, draws, i, p_out, sp.ns, albedo);
+                Surface::Diffuse { albedo: a } => {
+                    diffuse |= 1 << (i - start);
+                    albedo[i - start] = a;
+                }
             }
         }
+        if diffuse != 0 {
+            let chunk = Chunk {
+                start,
+                end,
+                diffuse,
+            };
+            let albedo = Vec3x8::gather(&albedo);
+            shade_diffuse(
+                inputs,
+                (paths, draws, surfaces),
+                &chunk,
+                albedo,
+                candidates,
+                (shadow, probes),
+            );
+        }
+    }
+}
+
+/// The views that show one thing about the first hit and end the path.
+fn show_view(view: View, hits: &Hits, surfaces: &SurfacePoints, paths: &mut Paths) {
+    for i in 0..paths.len() {
+        paths.alive[i] = false;
+        // The normal facing the viewer: outward on closed meshes, and into
+        // the room for the Cornell boxes' walls, as the reference shows
+        // them. (The bvh-cost view's film value was set by the caller.)
+        if view == View::Normals && hits.is_hit(i) {
+            paths.radiance[i] = 0.5 * (surfaces.get(i).ns + Vec3::ONE);
+        }
+    }
+}
+
+/// Eight consecutive paths `start..end` of a wave, with the mask of those
+/// that hit a diffuse surface.
+struct Chunk {
+    start: usize,
+    end: usize,
+    diffuse: u32,
+}
+
+/// Shades the diffuse hits of a chunk: next-event estimation into shadow
+/// (or probe) rays, then the next direction and Russian roulette.
+fn shade_diffuse(
+    inputs: &ShadeInputs,
+    (paths, draws, surfaces): (&mut Paths, &VertexDraws, &SurfacePoints),
+    chunk: &Chunk,
+    albedo: Vec3x8,
+    candidates: &mut Vec<Candidate>,
+    (shadow, probes): (&mut ShadowRays, &mut ShadowRays),
+) {
+    let settings = inputs.settings;
+    let sp = surfaces.lanes(chunk.start);
+    let p_out = offset_by_x8(sp.p, sp.ng, sp.err);
+    let throughput = Vec3x8::gather(&paths.throughput[chunk.start..chunk.end]);
+    // Lanes that gather direct light, and lanes that may go on.
+    let (mut direct, mut goes_on) = (0u32, 0u32);
+    for lane in lanes::each(chunk.diffuse) {
+        let depth = paths.depth[chunk.start + lane];
+        if depth < settings.max_depth && settings.counts_bounce(depth + 1) {
+            direct |= 1 << lane;
+        }
+        if depth + 1 < settings.max_depth {
+            goes_on |= 1 << lane;
+        }
+    }
+    if direct != 0 {
+        // Lambertian: f = albedo / π.
+        let beta = throughput * (albedo * f32x8::splat(std::f32::consts::FRAC_1_PI));
+        if settings.hemisphere {
+            for lane in lanes::each(direct) {
+                let i = chunk.start + lane;
+                let (p, n, beta) = (p_out.lane(lane), sp.ns.lane(lane), beta.lane(lane));
+                direct_hemisphere(inputs, draws, i, p, n, beta, probes);
+            }
+        } else {
+            let points = (sp.p, p_out, sp.ns);
+            direct_lights(
+                inputs,
+                paths,
+                draws,
+                chunk.start,
+                direct,
+                points,
+                beta,
+                candidates,
+            );
+            push_shadow_rays(chunk.start, direct, p_out, candidates, shadow);
+        }
+    }
+    if goes_on != 0 {
+        let next = Continuation {
+            origin: p_out,
+            normal: sp.ns,
+            throughput: throughput * albedo,
+        };
+        continue_paths(settings, paths, draws, chunk, goes_on, next);
     }
 }
 
 /// A ray that left the scene: only the sky (hemisphere lights) can be seen,
 /// and only by rays that were not camera rays.
-fn on_miss(inputs: &ShadeInputs, paths: &mut Paths, i: usize, dir: Vec3) {
+fn on_miss(inputs: &ShadeInputs, paths: &mut Paths, i: usize) {
     let depth = paths.depth[i];
     let settings = inputs.settings;
-    if settings.view == View::Path
-        && paths.specular[i]
-        && depth > 0
-        && dir.y > 0.0
-        && settings.counts_bounce(depth)
+    if paths.specular[i] && depth > 0 && paths.rays.dir_y[i] > 0.0 && settings.counts_bounce(depth)
     {
         paths.radiance[i] += paths.throughput[i] * inputs.lights.sky;
     }
 }
 
-/// Next-event estimation: `-l` samples per area-like light, one per delta
-/// light. Distances and angles are measured from the surface point `p`;
-/// only the shadow rays start from the offset point `p_out`, so the offset
-/// (large where the error bound is: 1 on a 2e6-wide ground plane) cannot
-/// bias the lighting.
+/// One light sample for each of a chunk's lanes: the shadow ray it asks
+/// for and what it brings if unoccluded.
+#[derive(Clone, Copy, Debug)]
+pub struct Candidate {
+    direction: Vec3x8,
+    t_max: f32x8,
+    contribution: Vec3x8,
+    /// Lanes whose ray is worth tracing (non-zero contribution).
+    valid: u32,
+}
+
+/// Next-event estimation for the lanes in `direct`: `-l` samples per
+/// area-like light, one per delta light, into `candidates` in light and
+/// sample order. Distances and angles are measured from the surface
+/// points `p`; only the shadow rays start from the offset points `p_out`,
+/// so the offset (large where the error bound is: 1 on a 2e6-wide ground
+/// plane) cannot bias the lighting.
+#[allow(clippy::too_many_arguments)]
 fn direct_lights(
     inputs: &ShadeInputs,
     paths: &mut Paths,
     draws: &VertexDraws,
-    i: usize,
-    (p, p_out, n): (Vec3, Vec3, Vec3),
-    beta: Vec3,
-    shadow: &mut ShadowRays,
+    start: usize,
+    direct: u32,
+    (p, p_out, n): (Vec3x8, Vec3x8, Vec3x8),
+    beta: Vec3x8,
+    candidates: &mut Vec<Candidate>,
 ) {
+    candidates.clear();
     let mut block = FIRST_LIGHT_BLOCK;
     for light in &inputs.lights.sources {
         // The `-l` samples of one light come from one stratified block.
@@ -169,24 +266,83 @@ fn direct_lights(
             block += 1;
             (inputs.settings.light_samples, Some(block - 1))
         };
-        let inv_count = 1.0 / count as f32;
+        let inv_count = f32x8::splat(1.0 / count as f32);
         for j in 0..count {
             let (u, v) = match this_block {
-                Some(b) => draws.point(i, b, j),
-                None => (0.5, 0.5),
+                Some(b) => draws.lanes(start, b, j),
+                None => (f32x8::splat(0.5), f32x8::splat(0.5)),
             };
-            let w = if light.uses_w() {
-                paths.stream[i].next_1d()
-            } else {
-                0.0
-            };
-            let Some(s) = light.sample(p, p_out, n, u, v, w) else {
-                continue;
-            };
+            let s = light.sample_x8((p, p_out, n), u, v).unwrap_or_else(|| {
+                sample_lanes(light, paths, start, direct, (p, p_out, n), (u, v))
+            });
             let contribution = beta * s.weight * (s.cos_surface * inv_count);
-            if contribution.max_element() > 0.0 {
-                shadow.push(i, p_out, s.direction, s.t_max, contribution);
-            }
+            let positive = contribution.max_element().simd_gt(f32x8::ZERO).to_bitmask();
+            candidates.push(Candidate {
+                direction: s.direction,
+                t_max: s.t_max,
+                contribution,
+                valid: s.valid & positive & direct,
+            });
+        }
+    }
+}
+
+/// [`LightSource::sample`] lane by lane, for the lights without an
+/// eight-lane form; meshes take their third number from each path's stream.
+fn sample_lanes(
+    light: &LightSource,
+    paths: &mut Paths,
+    start: usize,
+    direct: u32,
+    (p, p_out, n): (Vec3x8, Vec3x8, Vec3x8),
+    (u, v): (f32x8, f32x8),
+) -> LightSamples {
+    let mut out = [None; LANES];
+    for lane in lanes::each(direct) {
+        let w = if light.uses_w() {
+            paths.stream[start + lane].next_1d()
+        } else {
+            0.0
+        };
+        let (u, v) = (u.as_array()[lane], v.as_array()[lane]);
+        out[lane] = light.sample(p.lane(lane), p_out.lane(lane), n.lane(lane), u, v, w);
+    }
+    let field = |f: fn(&LightSample) -> Vec3| {
+        Vec3x8::gather(&out.map(|s| s.as_ref().map_or(Vec3::ZERO, f)))
+    };
+    let scalar = |f: fn(&LightSample) -> f32| f32x8::from(out.map(|s| s.as_ref().map_or(0.0, f)));
+    LightSamples {
+        direction: field(|s| s.direction),
+        t_max: scalar(|s| s.t_max),
+        weight: field(|s| s.weight),
+        cos_surface: scalar(|s| s.cos_surface),
+        valid: lanes::each(0xff)
+            .filter(|&l| out[l].is_some())
+            .fold(0, |m, l| m | 1 << l),
+    }
+}
+
+/// Pushes the chunk's shadow rays path by path, each path's in light and
+/// sample order: the rays of one vertex stay consecutive (they share an
+/// origin and mostly an octant, so they trace as a packet), and each path
+/// adds up its light in the same order whatever the lane layout.
+fn push_shadow_rays(
+    start: usize,
+    direct: u32,
+    p_out: Vec3x8,
+    candidates: &[Candidate],
+    shadow: &mut ShadowRays,
+) {
+    for lane in lanes::each(direct) {
+        let origin = p_out.lane(lane);
+        for c in candidates.iter().filter(|c| c.valid & (1 << lane) != 0) {
+            shadow.push(
+                start + lane,
+                origin,
+                c.direction.lane(lane),
+                c.t_max.as_array()[lane],
+                c.contribution.lane(lane),
+            );
         }
     }
 }
@@ -212,38 +368,86 @@ fn direct_hemisphere(
     }
 }
 
-/// Samples the next direction (cosine-weighted: the Lambertian weight
-/// f·cos/pdf is the albedo) and plays Russian roulette. Returns whether the
-/// path survives.
+/// Where the chunk's paths would go on from: the offset points, the
+/// shading normals, and the throughput times the albedo.
+struct Continuation {
+    origin: Vec3x8,
+    normal: Vec3x8,
+    throughput: Vec3x8,
+}
+
+/// Samples the next direction of the lanes in `goes_on` (cosine-weighted:
+/// the Lambertian weight f·cos/pdf is the albedo, already in
+/// `next.throughput`) and plays Russian roulette; sets each survivor's
+/// next ray and marks it alive.
 ///
 /// Roulette: from vertex `settings.roulette_depth` on, a path continues with
 /// probability q = min(1, max component of its throughput) and survivors
 /// divide their throughput by q, so the expected contribution is unchanged.
-fn continue_path(
+fn continue_paths(
     settings: &Settings,
     paths: &mut Paths,
     draws: &VertexDraws,
-    i: usize,
-    p: Vec3,
-    n: Vec3,
-    albedo: Vec3,
-) -> bool {
-    let mut throughput = paths.throughput[i] * albedo;
-    if settings.russian_roulette && paths.depth[i] >= settings.roulette_depth {
-        let q = throughput.max_element().min(1.0);
-        if paths.stream[i].next_1d() >= q {
-            return false;
+    chunk: &Chunk,
+    goes_on: u32,
+    next: Continuation,
+) {
+    let start = chunk.start;
+    let mut throughput = next.throughput;
+    let mut alive = goes_on;
+    if settings.russian_roulette {
+        let roulette = lanes::each(goes_on)
+            .filter(|&l| paths.depth[start + l] >= settings.roulette_depth)
+            .fold(0u32, |m, l| m | 1 << l);
+        if roulette != 0 {
+            let q = throughput.max_element().min(f32x8::ONE);
+            let xi = next_1d_x8(&mut paths.stream[start..chunk.end], roulette);
+            alive &= !(xi.simd_ge(q).to_bitmask() & roulette);
+            let in_roulette = lane_mask(roulette);
+            throughput = Vec3x8::select(in_roulette, throughput / q, throughput);
         }
-        throughput /= q;
     }
-    if throughput.max_element() <= 0.0 || !throughput.is_finite() {
-        return false;
+    let bad = throughput.max_element().simd_le(f32x8::ZERO) | !throughput.is_finite();
+    alive &= !bad.to_bitmask();
+    if alive == 0 {
+        return;
     }
-    let (u, v) = draws.point(i, BSDF_BLOCK, 0);
-    let d = warp::to_world(warp::cosine_hemisphere(u, v), n);
-    paths.throughput[i] = throughput;
-    paths.depth[i] += 1;
-    paths.specular[i] = false;
-    paths.set_ray(i, p, d, f32::INFINITY);
-    true
+    let (u, v) = draws.lanes(start, BSDF_BLOCK, 0);
+    let d = warp::to_world_x8(warp::cosine_hemisphere_x8(u, v), next.normal);
+    // Every lane's ray is written (the dead ones' are never read).
+    let end = chunk.end;
+    let r = &mut paths.rays;
+    next.origin.store(
+        [
+            &mut r.org_x[..end],
+            &mut r.org_y[..end],
+            &mut r.org_z[..end],
+        ],
+        start,
+    );
+    d.store(
+        [
+            &mut r.dir_x[..end],
+            &mut r.dir_y[..end],
+            &mut r.dir_z[..end],
+        ],
+        start,
+    );
+    lanes::store(&mut r.t_max[..end], start, f32x8::splat(f32::INFINITY));
+    let throughput = throughput.to_array();
+    for lane in lanes::each(alive) {
+        let i = start + lane;
+        paths.throughput[i] = throughput[lane];
+        paths.depth[i] += 1;
+        paths.specular[i] = false;
+        paths.alive[i] = true;
+    }
+}
+
+/// All-ones lanes for the bits of `mask`.
+fn lane_mask(mask: u32) -> f32x8 {
+    let bits = i32x8::from(std::array::from_fn::<i32, LANES, _>(|l| {
+        -((mask >> l) as i32 & 1)
+    }));
+    lanes::from_bits(bits)
 }

@@ -12,7 +12,7 @@
 use glam::Vec3;
 use wide::{f32x8, f64x4};
 
-use crate::lanes;
+use crate::lanes::{self, LANES, Vec3x8};
 use crate::ray::{Hits, Rays, gamma};
 use crate::scene::{Geometry, Primitive};
 
@@ -40,17 +40,26 @@ pub struct SurfacePoints {
     ns: [Vec<f32>; 3],
     err: Vec<f32>,
     front: Vec<bool>,
+    /// Hits of the last [`compute`](Self::compute) (the arrays only grow).
+    len: usize,
 }
 
-const LANES: usize = 8;
+/// [`SurfacePoint`]s of eight hits, one per lane (no `front`).
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceLanes {
+    pub p: Vec3x8,
+    pub ng: Vec3x8,
+    pub ns: Vec3x8,
+    pub err: L,
+}
+
 type L = f32x8;
-/// A vector of eight lanes per axis.
-type V = [L; 3];
 
 impl SurfacePoints {
     /// Computes the surface point of every hit of `rays`.
     pub fn compute(&mut self, geometry: &Geometry, hits: &Hits, rays: &Rays) {
         let n = hits.len();
+        self.len = n;
         // Grow only: waves shrink and refill all the time, and resizing
         // down and up again would zero-fill the arrays every wave.
         if self.err.len() < n {
@@ -98,6 +107,27 @@ impl SurfacePoints {
         }
     }
 
+    /// Whether hit `i` is on the front of its surface.
+    #[inline]
+    pub fn front(&self, i: usize) -> bool {
+        self.front[i]
+    }
+
+    /// The surface points of hits `start..start + 8` (zeros past the last hit).
+    #[inline]
+    pub fn lanes(&self, start: usize) -> SurfaceLanes {
+        let n = self.len;
+        fn axes(v: &[Vec<f32>; 3], n: usize) -> [&[f32]; 3] {
+            [&v[0][..n], &v[1][..n], &v[2][..n]]
+        }
+        SurfaceLanes {
+            p: Vec3x8::load(axes(&self.p, n), start),
+            ng: Vec3x8::load(axes(&self.ng, n), start),
+            ns: Vec3x8::load(axes(&self.ns, n), start),
+            err: lanes::load(&self.err[..n], start),
+        }
+    }
+
     fn set(&mut self, i: usize, sp: SurfacePoint) {
         for axis in 0..3 {
             self.p[axis][i] = sp.p[axis];
@@ -119,14 +149,8 @@ impl SurfacePoints {
         start: usize,
         end: usize,
     ) {
-        // Plain loops: `array::map` here compiled to element-wise moves.
-        let gather = |data: &[Vec3], k: usize| -> V {
-            let mut xyz = [[0.0f32; LANES]; 3];
-            for (lane, c) in corners.iter().enumerate() {
-                let p = data[c[k] as usize];
-                (xyz[0][lane], xyz[1][lane], xyz[2][lane]) = (p.x, p.y, p.z);
-            }
-            v3(|axis| L::from(xyz[axis]))
+        let gather = |data: &[Vec3], k: usize| {
+            Vec3x8::from_fn(LANES, |lane| data[corners[lane][k] as usize])
         };
         let load = |v: &[f32]| lanes::load(&v[..end], start);
         let (a, b, c) = (
@@ -134,20 +158,26 @@ impl SurfacePoints {
             gather(&tris.positions, 1),
             gather(&tris.positions, 2),
         );
-        let o = [load(&rays.org_x), load(&rays.org_y), load(&rays.org_z)];
-        let d = [load(&rays.dir_x), load(&rays.dir_y), load(&rays.dir_z)];
+        let o = Vec3x8::load(
+            [&rays.org_x[..end], &rays.org_y[..end], &rays.org_z[..end]],
+            start,
+        );
+        let d = Vec3x8::load(
+            [&rays.dir_x[..end], &rays.dir_y[..end], &rays.dir_z[..end]],
+            start,
+        );
         let (t, u, v) = (load(&hits.t), load(&hits.u), load(&hits.v));
         let w = L::ONE - u - v;
 
-        let ng = normalize_or_y(cross(sub(b, a), sub(c, a)));
+        let (ng, ng_ok) = (b - a).cross(c - a).normalize();
+        let ng = Vec3x8::select(ng_ok, ng, Vec3x8::splat(Vec3::Y));
         // The point where the ray meets the triangle's plane, in f64 and
         // rounded once. Interpolating the f32 barycentrics would be off by
         // ~ε times the triangle's size along the surface (0.1 on a 1e6
         // ground plane), and o + t·d by the error of t.
         let p_plane = plane_point(a, b, c, o, d);
-        let interpolated = add(add(scale(a, w), scale(b, u)), scale(c, v));
-        let plane_ok = p_plane[0].is_finite() & p_plane[1].is_finite() & p_plane[2].is_finite();
-        let p = v3(|k| plane_ok.select(p_plane[k], interpolated[k]));
+        let interpolated = a * w + b * u + c * v;
+        let p = Vec3x8::select(p_plane.is_finite(), p_plane, interpolated);
 
         // Off-plane error of p: its rounding to f32 (½ ULP per axis,
         // bounded by γ₁|p|), the f64 arithmetic before it (≪ 1e-12 of the
@@ -155,11 +185,13 @@ impl SurfacePoints {
         // that a new ray from near p makes: it works with vertices relative
         // to the ray origin, sheared, so it errs by up to ~γ₈ times the
         // distance R from p to the triangle's farthest vertex.
-        let r = max_element(abs(sub(a, p)))
-            .fast_max(max_element(abs(sub(b, p))))
-            .fast_max(max_element(abs(sub(c, p))));
-        let err = L::splat(gamma(1)) * dot(abs(ng), abs(p))
-            + L::splat(1e-12) * (max_element(abs(o)) + max_element(abs(scale(d, t))))
+        let r = (a - p)
+            .abs()
+            .max((b - p).abs())
+            .max((c - p).abs())
+            .max_element();
+        let err = L::splat(gamma(1)) * ng.abs().dot(p.abs())
+            + L::splat(1e-12) * (o.abs().max_element() + (d * t).abs().max_element())
             + L::splat(gamma(8)) * r;
 
         // Interpolated vertex normal; the geometric one where it vanishes.
@@ -168,22 +200,21 @@ impl SurfacePoints {
             gather(&tris.normals, 1),
             gather(&tris.normals, 2),
         );
-        let n_interp = add(add(scale(na, w), scale(nb, u)), scale(nc, v));
-        let (ns, ns_ok) = normalize(n_interp);
-        let ns = v3(|k| ns_ok.select(ns[k], ng[k]));
+        let (ns, ns_ok) = (na * w + nb * u + nc * v).normalize();
+        let ns = Vec3x8::select(ns_ok, ns, ng);
 
-        let front = dot(ng, d).simd_lt(L::ZERO);
-        let ng = v3(|k| front.select(ng[k], -ng[k]));
-        let flip = dot(ns, ng).simd_lt(L::ZERO);
-        let ns = v3(|k| flip.select(-ns[k], ns[k]));
+        let front = ng.dot(d).simd_lt(L::ZERO);
+        let ng = Vec3x8::select(front, ng, -ng);
+        let flip = ns.dot(ng).simd_lt(L::ZERO);
+        let ns = Vec3x8::select(flip, -ns, ns);
 
-        let store = |dst: &mut Vec<f32>, x: L| lanes::store(&mut dst[..end], start, x);
-        for axis in 0..3 {
-            store(&mut self.p[axis], p[axis]);
-            store(&mut self.ng[axis], ng[axis]);
-            store(&mut self.ns[axis], ns[axis]);
-        }
-        store(&mut self.err, err);
+        let [px, py, pz] = &mut self.p;
+        p.store([&mut px[..end], &mut py[..end], &mut pz[..end]], start);
+        let [gx, gy, gz] = &mut self.ng;
+        ng.store([&mut gx[..end], &mut gy[..end], &mut gz[..end]], start);
+        let [sx, sy, sz] = &mut self.ns;
+        ns.store([&mut sx[..end], &mut sy[..end], &mut sz[..end]], start);
+        lanes::store(&mut self.err[..end], start, err);
         let front = front.to_bitmask();
         for (lane, f) in self.front[start..end].iter_mut().enumerate() {
             *f = front & (1 << lane) != 0;
@@ -193,9 +224,9 @@ impl SurfacePoints {
 
 /// `o + t·d` where the ray meets the plane of triangle `abc`, with `t`
 /// and the point computed in f64 (four lanes at a time) and rounded once.
-fn plane_point(a: V, b: V, c: V, o: V, d: V) -> V {
+fn plane_point(a: Vec3x8, b: Vec3x8, c: Vec3x8, o: Vec3x8, d: Vec3x8) -> Vec3x8 {
     type D = [f64x4; 3];
-    let lanes = |v: V| v.map(L::to_array);
+    let lanes = |v: Vec3x8| [v.x, v.y, v.z].map(L::to_array);
     let (a, b, c, o, d) = (lanes(a), lanes(b), lanes(c), lanes(o), lanes(d));
     let mut out = [[0.0f32; LANES]; 3];
     for half in 0..2 {
@@ -225,7 +256,7 @@ fn plane_point(a: V, b: V, c: V, o: V, d: V) -> V {
             }
         }
     }
-    v3(|k| L::from(out[k]))
+    Vec3x8::new(out[0].into(), out[1].into(), out[2].into())
 }
 
 /// The surface point of a sphere hit.
@@ -251,58 +282,6 @@ fn sphere_point(geometry: &Geometry, i: usize, origin: Vec3, dir: Vec3, t: f32) 
         front,
         err,
     }
-}
-
-/// The vector whose axis `k` is `f(k)`.
-#[inline(always)]
-fn v3(f: impl Fn(usize) -> L) -> V {
-    [f(0), f(1), f(2)]
-}
-
-fn sub(x: V, y: V) -> V {
-    v3(|k| x[k] - y[k])
-}
-
-fn add(x: V, y: V) -> V {
-    v3(|k| x[k] + y[k])
-}
-
-fn scale(x: V, s: L) -> V {
-    v3(|k| x[k] * s)
-}
-
-fn abs(x: V) -> V {
-    v3(|k| x[k].abs())
-}
-
-fn dot(x: V, y: V) -> L {
-    x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
-}
-
-fn max_element(x: V) -> L {
-    x[0].fast_max(x[1]).fast_max(x[2])
-}
-
-fn cross(x: V, y: V) -> V {
-    [
-        x[1] * y[2] - y[1] * x[2],
-        x[2] * y[0] - y[2] * x[0],
-        x[0] * y[1] - y[0] * x[1],
-    ]
-}
-
-/// `x / |x|` and where that is a usable unit vector (finite, non-zero length).
-fn normalize(x: V) -> (V, L) {
-    let rcp = L::ONE / dot(x, x).sqrt();
-    let ok = rcp.is_finite() & rcp.simd_gt(L::ZERO);
-    (scale(x, rcp), ok)
-}
-
-/// `x / |x|`, or +y where `x` has no direction.
-fn normalize_or_y(x: V) -> V {
-    let (n, ok) = normalize(x);
-    let y = [L::ZERO, L::ONE, L::ZERO];
-    v3(|k| ok.select(n[k], y[k]))
 }
 
 #[cfg(test)]
