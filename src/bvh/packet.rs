@@ -60,6 +60,8 @@ pub(crate) struct Packet {
     dir: [Vec3; WIDTH],
     /// Direction of the first active ray: orders the children.
     lead: Vec3,
+    /// Triangle-test setup per lane.
+    tri: [RayTri; WIDTH],
 }
 
 impl Packet {
@@ -102,6 +104,7 @@ impl Packet {
             org,
             dir,
             lead: dir[active.trailing_zeros() as usize],
+            tri: std::array::from_fn(|lane| cull.ray_tri(lane, org[lane])),
         })
     }
 
@@ -208,7 +211,6 @@ pub(crate) fn closest(
     work: &mut [Work; WIDTH],
     visits: &mut u64,
 ) {
-    let mut tri: [Option<RayTri>; WIDTH] = [None; WIDTH];
     let mut t_best = Lanes::from(best.map(|b| b.t));
     stack.clear();
     let mut current = (scene.root, active);
@@ -224,7 +226,7 @@ pub(crate) fn closest(
         } else {
             for i in lanes(mask) {
                 let ray = (packet.org[i], packet.dir[i]);
-                scene.leaf_closest(child, ray, &mut tri[i], &mut best[i], &mut work[i]);
+                scene.leaf_closest(child, ray, &packet.tri[i], &mut best[i], &mut work[i]);
             }
             t_best = Lanes::from(best.map(|b| b.t));
         }
@@ -254,7 +256,6 @@ pub(crate) fn any(
     work: &mut [Work; WIDTH],
     visits: &mut u64,
 ) -> u32 {
-    let mut tri: [Option<RayTri>; WIDTH] = [None; WIDTH];
     let cull = packet.cull(Lanes::from(*t_max));
     // Rays still looking for an occluder.
     let mut open = active;
@@ -272,7 +273,7 @@ pub(crate) fn any(
         } else {
             for i in lanes(mask) {
                 let ray = (packet.org[i], packet.dir[i], t_max[i]);
-                if scene.leaf_occludes(child, ray, &mut tri[i], &mut work[i]) {
+                if scene.leaf_occludes(child, ray, &packet.tri[i], &mut work[i]) {
                     open &= !(1 << i);
                 }
             }

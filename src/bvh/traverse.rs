@@ -34,7 +34,7 @@ use glam::Vec3;
 
 use super::flatten::{ChildRef, WideNode};
 use super::sphere::{PackedSphere, intersect_sphere};
-use super::triangle::{RayTri, TriGroup, intersect_group};
+use super::triangle::{RayTri, RayTriLanes, TriGroup, intersect_group};
 use super::{Lanes, WIDTH};
 use crate::ray::NO_HIT;
 
@@ -144,6 +144,10 @@ pub(crate) struct Cull {
     inv: [[f32; WIDTH]; 3],
     /// Absolute cull slack per lane (see [`SLACK_ULPS`]).
     slack: [f32; WIDTH],
+    /// Lanes whose direction is negative (1/d < 0, including −0), per axis.
+    negative: [u32; 3],
+    /// The triangle test's per-ray setup.
+    tri: RayTriLanes,
 }
 
 impl Cull {
@@ -163,14 +167,18 @@ impl Cull {
     /// values the cull computed, so box decisions agree exactly.
     #[inline(always)]
     fn ray_box(&self, lane: usize, o: Vec3) -> RayBox {
-        let inv = [0, 1, 2].map(|axis| self.inv[axis][lane]);
         RayBox {
             o: [Lanes::splat(o.x), Lanes::splat(o.y), Lanes::splat(o.z)],
-            inv: inv.map(Lanes::splat),
-            // ±0 gives ±∞, whose sign still picks the right near plane.
-            near: inv.map(|i| if i >= 0.0 { 0 } else { 1 }),
+            inv: [0, 1, 2].map(|axis| Lanes::splat(self.inv[axis][lane])),
+            near: self.negative.map(|m| ((m >> lane) & 1) as usize),
             slack: self.slack[lane],
         }
+    }
+
+    /// Triangle-test setup of the ray in `lane`, whose origin is `o`.
+    #[inline(always)]
+    pub fn ray_tri(&self, lane: usize, o: Vec3) -> RayTri {
+        self.tri.ray(lane, o)
     }
 }
 
@@ -227,6 +235,9 @@ pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start
         mask: hit & valid.to_bitmask() & ((1u32 << (end - start)) - 1),
         inv: inv.map(Lanes::to_array),
         slack: slack.to_array(),
+        // ±0 gives ±∞, whose sign still picks the right near plane.
+        negative: positive.map(|p| !p.to_bitmask() & 0xff),
+        tri: RayTriLanes::new(dir, inv),
     }
 }
 
@@ -340,14 +351,13 @@ fn leaf_spheres(spheres: &[PackedSphere], o: Vec3, d: Vec3, best: &mut Closest, 
 
 impl Scene<'_> {
     /// Tests one ray against the primitives of `leaf`, narrowing `best`.
-    /// `tri` holds the ray's triangle-test setup, made at its first
-    /// triangle leaf (most camera rays never reach one).
+    /// `tri` is the ray's triangle-test setup.
     #[inline(always)]
     pub fn leaf_closest(
         &self,
         leaf: ChildRef,
         (o, d): (Vec3, Vec3),
-        tri: &mut Option<RayTri>,
+        tri: &RayTri,
         best: &mut Closest,
         work: &mut Work,
     ) {
@@ -355,7 +365,6 @@ impl Scene<'_> {
         if leaf.is_sphere() {
             leaf_spheres(&self.spheres[items], o, d, best, work);
         } else {
-            let tri = tri.get_or_insert_with(|| RayTri::new(o, d));
             leaf_triangles(&self.tri_groups[items], tri, best, work);
         }
     }
@@ -367,14 +376,13 @@ impl Scene<'_> {
         &self,
         leaf: ChildRef,
         (o, d, t_max): (Vec3, Vec3, f32),
-        tri: &mut Option<RayTri>,
+        tri: &RayTri,
         work: &mut Work,
     ) -> bool {
         let items = leaf.index()..leaf.index() + leaf.count();
         if leaf.is_sphere() {
             spheres_occlude(&self.spheres[items], o, d, t_max, work)
         } else {
-            let tri = tri.get_or_insert_with(|| RayTri::new(o, d));
             triangles_occlude(&self.tri_groups[items], tri, t_max, work)
         }
     }
@@ -502,9 +510,7 @@ pub(crate) fn closest(
     // The batch cull keeps such rays out.
     debug_assert!(!never_hits(o, d, t_max) && cull.mask & (1 << lane) != 0);
     let rb = cull.ray_box(lane, o);
-    // The triangle test's shear is set up at the first triangle leaf: most
-    // camera rays of a typical scene never get that far.
-    let mut tri: Option<RayTri> = None;
+    let tri = cull.ray_tri(lane, o);
     let mut sp = 0usize;
     let mut current = scene.root;
     loop {
@@ -517,7 +523,7 @@ pub(crate) fn closest(
                 continue;
             }
         } else {
-            scene.leaf_closest(current, (o, d), &mut tri, &mut best, work);
+            scene.leaf_closest(current, (o, d), &tri, &mut best, work);
         }
         // Pop the next child that is not farther than the nearest hit so far.
         loop {
@@ -547,7 +553,7 @@ pub(crate) fn any(
     // The batch cull keeps such rays out.
     debug_assert!(!never_hits(o, d, t_max) && cull.mask & (1 << lane) != 0);
     let rb = cull.ray_box(lane, o);
-    let mut tri: Option<RayTri> = None;
+    let tri = cull.ray_tri(lane, o);
     let mut sp = 0usize;
     let mut current = scene.root;
     // Children are visited in slot order, unsorted: any occluder ends the
@@ -561,7 +567,7 @@ pub(crate) fn any(
                 current = push_unordered(node, mask, stack, &mut sp);
                 continue;
             }
-        } else if scene.leaf_occludes(current, (o, d, t_max), &mut tri, work) {
+        } else if scene.leaf_occludes(current, (o, d, t_max), &tri, work) {
             return true;
         }
         if sp == 0 {

@@ -88,29 +88,78 @@ pub(crate) struct RayTri {
 }
 
 impl RayTri {
-    /// Precomputes the shear for direction `d` (non-zero) from origin `o`.
+    /// Precomputes the shear for direction `d` (non-zero) from origin `o`:
+    /// [`RayTriLanes`] run in one lane.
     #[inline]
     pub fn new(o: Vec3, d: Vec3) -> RayTri {
-        let a = d.abs();
-        let kz = if a.x >= a.y && a.x >= a.z {
+        let d8 = d.to_array().map(TriLanes::splat);
+        RayTriLanes::new(d8, d8.map(|d| TriLanes::ONE / d)).ray(0, o)
+    }
+}
+
+/// The direction-only part of [`RayTri`] for eight rays, computed with
+/// vector instructions once per batch slot (the batch cull has the
+/// reciprocal directions already): which axis is major, whether the other
+/// two swap, and the shear.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RayTriLanes {
+    /// Lanes whose major axis is x, and (of the others) y.
+    major_x: u32,
+    major_y: u32,
+    /// Lanes whose direction is negative along the major axis: kx and ky
+    /// swap, so the transformed triangle keeps its winding.
+    flip: u32,
+    /// `dx/dz`, `dy/dz`, `1/dz` in the permuted frame, per lane.
+    shear: [[f32; TRI_WIDTH]; 3],
+}
+
+impl RayTriLanes {
+    /// Setup for directions `d` with reciprocals `inv` (= 1 / `d`).
+    #[inline(always)]
+    pub fn new(d: [TriLanes; 3], inv: [TriLanes; 3]) -> RayTriLanes {
+        let a = d.map(TriLanes::abs);
+        let major_x = a[0].simd_ge(a[1]) & a[0].simd_ge(a[2]);
+        let major_y = !major_x & a[1].simd_ge(a[2]);
+        // The component along axis kz, kx or ky of each lane, where
+        // (kx, ky) = (1, 2), (2, 0), (0, 1) for kz = 0, 1, 2.
+        let pick = |x: TriLanes, y: TriLanes, z: TriLanes| major_x.select(x, major_y.select(y, z));
+        let dz = pick(d[0], d[1], d[2]);
+        let inv_dz = pick(inv[0], inv[1], inv[2]);
+        let (d1, d2) = (pick(d[1], d[2], d[0]), pick(d[2], d[0], d[1]));
+        let flip = dz.simd_lt(TriLanes::ZERO);
+        let (dx, dy) = (flip.select(d2, d1), flip.select(d1, d2));
+        // One division (the cull's): the shear need not be the correctly
+        // rounded d/dz, only the same for every triangle the ray is tested
+        // against.
+        RayTriLanes {
+            major_x: major_x.to_bitmask(),
+            major_y: major_y.to_bitmask(),
+            flip: flip.to_bitmask(),
+            shear: [dx * inv_dz, dy * inv_dz, inv_dz].map(TriLanes::to_array),
+        }
+    }
+
+    /// The full setup of the ray in `lane`, whose origin is `o`.
+    #[inline(always)]
+    pub fn ray(&self, lane: usize, o: Vec3) -> RayTri {
+        let bit = |mask: u32| (mask >> lane) & 1 != 0;
+        let kz = if bit(self.major_x) {
             0
-        } else if a.y >= a.z {
+        } else if bit(self.major_y) {
             1
         } else {
             2
         };
         // Arrays, not `Vec3` indexing (a match per component).
-        let (d, o) = (d.to_array(), o.to_array());
         let (mut kx, mut ky) = [(1, 2), (2, 0), (0, 1)][kz];
-        if d[kz] < 0.0 {
+        if bit(self.flip) {
             std::mem::swap(&mut kx, &mut ky);
         }
-        // One division: the shear need not be the correctly rounded d/dz,
-        // only the same for every triangle the ray is tested against.
-        let inv_dz = 1.0 / d[kz];
+        let o = o.to_array();
+        let lane = lane % TRI_WIDTH;
         RayTri {
             k: [kx, ky, kz],
-            s: [d[kx] * inv_dz, d[ky] * inv_dz, inv_dz],
+            s: self.shear.map(|s| s[lane]),
             o: [o[kx], o[ky], o[kz]],
         }
     }
