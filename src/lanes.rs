@@ -51,6 +51,13 @@ pub fn each(mut mask: u32) -> impl Iterator<Item = usize> {
     })
 }
 
+/// All-ones lanes for the bits of `mask` (the inverse of `to_bitmask`).
+#[inline(always)]
+pub fn lane_mask(mask: u32) -> f32x8 {
+    let bits: [i32; LANES] = std::array::from_fn(|l| -(((mask >> l) & 1) as i32));
+    from_bits(i32x8::from(bits))
+}
+
 /// The bits of `x`, as integers (for sign and ULP tricks).
 #[inline(always)]
 pub fn to_bits(x: f32x8) -> i32x8 {
@@ -64,9 +71,9 @@ pub fn from_bits(x: i32x8) -> f32x8 {
 }
 
 /// Eight 3-vectors, one register per axis. The arithmetic is glam's,
-/// operation for operation (dot products summed x + y + z, maxima that
-/// ignore NaN like `f32::max`), so a lane holds exactly what the same
-/// expression on `Vec3` would give.
+/// operation for operation (dot products summed x + y + z, maxima as
+/// `if a > b { a } else { b }`, which is what `maxps` computes), so a
+/// lane holds exactly what the same expression on `Vec3` would give.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Vec3x8 {
     pub x: f32x8,
@@ -102,13 +109,13 @@ impl Vec3x8 {
         )
     }
 
-    /// Writes the lanes to `axes[k][start..]`, as many as fit.
+    /// Writes the lanes to `axes[k][start..end]`, as many as fit.
     #[inline(always)]
-    pub fn store(self, axes: [&mut [f32]; 3], start: usize) {
+    pub fn store(self, axes: [&mut Vec<f32>; 3], start: usize, end: usize) {
         let [x, y, z] = axes;
-        store(x, start, self.x);
-        store(y, start, self.y);
-        store(z, start, self.z);
+        store(&mut x[..end], start, self.x);
+        store(&mut y[..end], start, self.y);
+        store(&mut z[..end], start, self.z);
     }
 
     /// The vectors of `v` (up to eight; zeros past its end), one per lane.
@@ -172,16 +179,21 @@ impl Vec3x8 {
         Vec3x8::new(self.x.abs(), self.y.abs(), self.z.abs())
     }
 
-    /// Largest component, ignoring NaN as `f32::max` does.
+    /// Largest component, as glam's `max_element`: max(x, max(y, z))
+    /// with `max(a, b) = if a > b { a } else { b }`.
     #[inline(always)]
     pub fn max_element(self) -> f32x8 {
-        self.x.max(self.y).max(self.z)
+        self.x.fast_max(self.y.fast_max(self.z))
     }
 
-    /// Componentwise maximum, ignoring NaN as `f32::max` does.
+    /// Componentwise maximum, as glam's `max` (`if a > b { a } else { b }`).
     #[inline(always)]
     pub fn max(self, o: Self) -> Self {
-        Vec3x8::new(self.x.max(o.x), self.y.max(o.y), self.z.max(o.z))
+        Vec3x8::new(
+            self.x.fast_max(o.x),
+            self.y.fast_max(o.y),
+            self.z.fast_max(o.z),
+        )
     }
 
     /// All-ones lanes where every component is finite.
@@ -261,6 +273,40 @@ impl std::ops::Neg for Vec3x8 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn maxima_are_glams() {
+        // NaN in every position, ±0 both ways round: the lanes must pick
+        // exactly what glam picks.
+        let vals = [1.0, -2.0, 0.0, -0.0, f32::NAN, f32::INFINITY];
+        let bits = |x: f32| if x.is_nan() { u32::MAX } else { x.to_bits() };
+        for a in vals {
+            for b in vals {
+                let vs: [Vec3; LANES] =
+                    std::array::from_fn(|l| Vec3::new(a, b, vals[l % vals.len()]));
+                let ws: [Vec3; LANES] =
+                    std::array::from_fn(|l| Vec3::new(vals[l % vals.len()], a, b));
+                let (v, w) = (Vec3x8::gather(&vs), Vec3x8::gather(&ws));
+                let (m, e) = (v.max(w), v.max_element());
+                for l in 0..LANES {
+                    let want = vs[l].max(ws[l]).to_array().map(bits);
+                    assert_eq!(
+                        m.lane(l).to_array().map(bits),
+                        want,
+                        "max {:?} {:?}",
+                        vs[l],
+                        ws[l]
+                    );
+                    assert_eq!(
+                        bits(e.as_array()[l]),
+                        bits(vs[l].max_element()),
+                        "{:?}",
+                        vs[l]
+                    );
+                }
+            }
+        }
+    }
 
     #[test]
     fn full_and_partial_groups() {

@@ -96,6 +96,11 @@ impl Packet {
         };
         let org = std::array::from_fn(|i| lane(&o, i));
         let dir = std::array::from_fn(|i| lane(&dir, i));
+        // A plain loop: `array::from_fn` here was left as a call.
+        let mut tri = [cull.ray_tri(0, org[0]); WIDTH];
+        for (lane, t) in tri.iter_mut().enumerate().skip(1) {
+            *t = cull.ray_tri(lane, org[lane]);
+        }
         Some(Packet {
             o,
             inv,
@@ -104,7 +109,7 @@ impl Packet {
             org,
             dir,
             lead: dir[active.trailing_zeros() as usize],
-            tri: std::array::from_fn(|lane| cull.ray_tri(lane, org[lane])),
+            tri,
         })
     }
 
@@ -189,16 +194,6 @@ fn descend(
     Some((node.child[nearest], masks[nearest]))
 }
 
-/// The lanes set in `mask`, lowest first.
-#[inline(always)]
-fn lanes(mask: u32) -> impl Iterator<Item = usize> {
-    std::iter::successors((mask != 0).then_some(mask), |m| {
-        let rest = m & (m - 1);
-        (rest != 0).then_some(rest)
-    })
-    .map(|m| m.trailing_zeros() as usize)
-}
-
 /// Closest hits of the packet's `active` rays. `best` holds each lane's
 /// initial `t_max` (and no hit) and receives the results; `work` the
 /// primitives each ray tested, `visits` the node visits summed over rays.
@@ -224,7 +219,7 @@ pub(crate) fn closest(
                 continue;
             }
         } else {
-            for i in lanes(mask) {
+            for i in crate::lanes::each(mask) {
                 let ray = (packet.org[i], packet.dir[i]);
                 scene.leaf_closest(child, ray, &packet.tri[i], &mut best[i], &mut work[i]);
             }
@@ -271,7 +266,7 @@ pub(crate) fn any(
                 continue;
             }
         } else {
-            for i in lanes(mask) {
+            for i in crate::lanes::each(mask) {
                 let ray = (packet.org[i], packet.dir[i], t_max[i]);
                 if scene.leaf_occludes(child, ray, &packet.tri[i], &mut work[i]) {
                     open &= !(1 << i);

@@ -2,7 +2,8 @@
 //!
 //! This is the algorithm of Woop, Benthin and Wald, "Watertight Ray/Triangle
 //! Intersection" (JCGT 2013). The ray is turned into the +z axis of a sheared
-//! coordinate system (per-ray constants, computed once in [`RayTri::new`]),
+//! coordinate system (per-ray constants, computed for eight rays at once by
+//! [`RayTriLanes`] in the batch cull),
 //! which reduces the inside test to the signs of three 2D edge functions
 //!
 //! ```text
@@ -29,7 +30,7 @@ use glam::Vec3;
 
 use crate::scene::Triangles;
 
-use super::{TRI_WIDTH, TriLanes};
+use super::{Lanes, TRI_WIDTH, TriLanes, WIDTH};
 use crate::ray::NO_HIT;
 
 /// [`TRI_WIDTH`] triangles, structure of arrays. Unused lanes have NaN vertices
@@ -92,8 +93,8 @@ impl RayTri {
     /// [`RayTriLanes`] run in one lane.
     #[inline]
     pub fn new(o: Vec3, d: Vec3) -> RayTri {
-        let d8 = d.to_array().map(TriLanes::splat);
-        RayTriLanes::new(d8, d8.map(|d| TriLanes::ONE / d)).ray(0, o)
+        let d8 = d.to_array().map(Lanes::splat);
+        RayTriLanes::new(d8, d8.map(|d| Lanes::ONE / d)).ray(0, o)
     }
 }
 
@@ -110,23 +111,23 @@ pub(crate) struct RayTriLanes {
     /// swap, so the transformed triangle keeps its winding.
     flip: u32,
     /// `dx/dz`, `dy/dz`, `1/dz` in the permuted frame, per lane.
-    shear: [[f32; TRI_WIDTH]; 3],
+    shear: [[f32; WIDTH]; 3],
 }
 
 impl RayTriLanes {
     /// Setup for directions `d` with reciprocals `inv` (= 1 / `d`).
     #[inline(always)]
-    pub fn new(d: [TriLanes; 3], inv: [TriLanes; 3]) -> RayTriLanes {
-        let a = d.map(TriLanes::abs);
+    pub fn new(d: [Lanes; 3], inv: [Lanes; 3]) -> RayTriLanes {
+        let a = d.map(Lanes::abs);
         let major_x = a[0].simd_ge(a[1]) & a[0].simd_ge(a[2]);
         let major_y = !major_x & a[1].simd_ge(a[2]);
         // The component along axis kz, kx or ky of each lane, where
         // (kx, ky) = (1, 2), (2, 0), (0, 1) for kz = 0, 1, 2.
-        let pick = |x: TriLanes, y: TriLanes, z: TriLanes| major_x.select(x, major_y.select(y, z));
+        let pick = |x: Lanes, y: Lanes, z: Lanes| major_x.select(x, major_y.select(y, z));
         let dz = pick(d[0], d[1], d[2]);
         let inv_dz = pick(inv[0], inv[1], inv[2]);
         let (d1, d2) = (pick(d[1], d[2], d[0]), pick(d[2], d[0], d[1]));
-        let flip = dz.simd_lt(TriLanes::ZERO);
+        let flip = dz.simd_lt(Lanes::ZERO);
         let (dx, dy) = (flip.select(d2, d1), flip.select(d1, d2));
         // One division (the cull's): the shear need not be the correctly
         // rounded d/dz, only the same for every triangle the ray is tested
@@ -135,7 +136,7 @@ impl RayTriLanes {
             major_x: major_x.to_bitmask(),
             major_y: major_y.to_bitmask(),
             flip: flip.to_bitmask(),
-            shear: [dx * inv_dz, dy * inv_dz, inv_dz].map(TriLanes::to_array),
+            shear: [dx * inv_dz, dy * inv_dz, inv_dz].map(Lanes::to_array),
         }
     }
 
@@ -156,7 +157,7 @@ impl RayTriLanes {
             std::mem::swap(&mut kx, &mut ky);
         }
         let o = o.to_array();
-        let lane = lane % TRI_WIDTH;
+        let lane = lane % WIDTH;
         RayTri {
             k: [kx, ky, kz],
             s: self.shear.map(|s| s[lane]),
@@ -282,4 +283,73 @@ fn refine_edges_f64(
     *u = TriLanes::from(uu);
     *v = TriLanes::from(vv);
     *w = TriLanes::from(ww);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The per-ray setup the lane form replaced, kept as the reference.
+    fn scalar_ray_tri(o: Vec3, d: Vec3) -> RayTri {
+        let a = d.abs();
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let (d, o) = (d.to_array(), o.to_array());
+        let (mut kx, mut ky) = [(1, 2), (2, 0), (0, 1)][kz];
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let inv_dz = 1.0 / d[kz];
+        RayTri {
+            k: [kx, ky, kz],
+            s: [d[kx] * inv_dz, d[ky] * inv_dz, inv_dz],
+            o: [o[kx], o[ky], o[kz]],
+        }
+    }
+
+    #[test]
+    fn lane_setup_is_the_scalar_setup() {
+        // Ties between axes, negative and −0 components, each direction
+        // in every lane position.
+        let dirs = [
+            Vec3::new(1.0, 1.0, 1.0),
+            Vec3::new(-1.0, 1.0, 0.5),
+            Vec3::new(0.5, -2.0, 2.0),
+            Vec3::new(0.0, -0.0, -3.0),
+            Vec3::new(-0.0, 0.7, -0.7),
+            Vec3::new(3.0, -3.0, 0.1),
+            Vec3::new(1e-30, -2e-30, 5e-31),
+            Vec3::new(-0.3, -0.4, -0.5),
+            Vec3::new(2.0, 0.0, -0.0),
+        ];
+        for shift in 0..dirs.len() {
+            let d: [Vec3; WIDTH] = std::array::from_fn(|l| dirs[(l + shift) % dirs.len()]);
+            let o: [Vec3; WIDTH] =
+                std::array::from_fn(|l| Vec3::new(l as f32, -2.0 * l as f32, 0.5));
+            let axis = |k: usize| Lanes::from(d.map(|v| v[k]));
+            let d8 = [axis(0), axis(1), axis(2)];
+            let lanes = RayTriLanes::new(d8, d8.map(|x| Lanes::ONE / x));
+            for l in 0..WIDTH {
+                let (got, want) = (lanes.ray(l, o[l]), scalar_ray_tri(o[l], d[l]));
+                assert_eq!(got.k, want.k, "{:?}", d[l]);
+                assert_eq!(
+                    got.s.map(f32::to_bits),
+                    want.s.map(f32::to_bits),
+                    "{:?}",
+                    d[l]
+                );
+                assert_eq!(
+                    got.o.map(f32::to_bits),
+                    want.o.map(f32::to_bits),
+                    "{:?}",
+                    d[l]
+                );
+            }
+        }
+    }
 }

@@ -460,8 +460,87 @@ impl LightSet {
 mod tests {
     use super::*;
 
-    /// Every light with an eight-lane form gives, in each lane, what the
-    /// one-point `sample` gives for that lane's inputs.
+    /// The one-point formulas the eight-lane forms replaced, kept as the
+    /// reference they must reproduce bit for bit.
+    fn scalar_sample(
+        light: &LightSource,
+        p: Vec3,
+        origin: Vec3,
+        n: Vec3,
+        u: f32,
+        v: f32,
+    ) -> Option<LightSample> {
+        match light {
+            LightSource::Point {
+                position,
+                intensity,
+            } => {
+                let d = *position - p;
+                let dist2 = d.length_squared();
+                let cos_surface = n.dot(d) / dist2.sqrt();
+                (dist2 > 0.0 && cos_surface > 0.0).then(|| LightSample {
+                    direction: *position - origin,
+                    t_max: 1.0,
+                    weight: *intensity / dist2,
+                    cos_surface,
+                })
+            }
+            LightSource::Directional { to_light, radiance } => {
+                let cos_surface = n.dot(*to_light);
+                (cos_surface > 0.0).then_some(LightSample {
+                    direction: *to_light,
+                    t_max: f32::INFINITY,
+                    weight: *radiance,
+                    cos_surface,
+                })
+            }
+            LightSource::Rectangle {
+                center,
+                normal,
+                dim_x,
+                dim_y,
+                radiance,
+                area,
+                q_err,
+                extent,
+            } => {
+                let q = *center + (u - 0.5) * *dim_x + (v - 0.5) * *dim_y;
+                let d = q - p;
+                let dist2 = d.length_squared();
+                let inv_dist = dist2.sqrt().recip();
+                let cos_light = -normal.dot(d) * inv_dist;
+                let cos_surface = n.dot(d) * inv_dist;
+                if !(cos_light > 0.0 && cos_surface > 0.0) {
+                    return None;
+                }
+                let reach = (q - origin).abs().max_element() + extent;
+                let end = offset_by(q, *normal, q_err + gamma(8) * reach);
+                Some(LightSample {
+                    direction: end - origin,
+                    t_max: 1.0,
+                    weight: *radiance * (area * cos_light * inv_dist * inv_dist),
+                    cos_surface,
+                })
+            }
+            LightSource::Hemisphere { radiance } => {
+                let d = warp::to_world(warp::cosine_hemisphere(u, v), n);
+                let cos = d.dot(n);
+                if d.y <= 0.0 || cos <= 0.0 {
+                    return None;
+                }
+                Some(LightSample {
+                    direction: d,
+                    t_max: f32::INFINITY,
+                    weight: *radiance * (std::f32::consts::PI / cos),
+                    cos_surface: cos,
+                })
+            }
+            _ => unreachable!(),
+        }
+    }
+
+    /// Every light with an eight-lane form gives, in each lane, exactly
+    /// what the one-point formula gives for that lane's inputs.
     #[test]
     fn lanes_sample_independently() {
         let lights = [
@@ -505,20 +584,20 @@ mod tests {
             let s = light.sample_x8((p, origin, n), u, v).unwrap();
             let mut valid = 0;
             for l in 0..8 {
-                let one = light.sample(
-                    p.lane(l),
-                    origin.lane(l),
-                    n.lane(l),
-                    u.as_array()[l],
-                    v.as_array()[l],
-                    0.0,
-                );
+                let (u, v) = (u.as_array()[l], v.as_array()[l]);
+                let one = scalar_sample(light, p.lane(l), origin.lane(l), n.lane(l), u, v);
+                let via_sample = light.sample(p.lane(l), origin.lane(l), n.lane(l), u, v, 0.0);
                 let bits = |s: &LightSample| {
                     let v = [s.direction, s.weight].map(|v| v.to_array().map(f32::to_bits));
                     (v, s.t_max.to_bits(), s.cos_surface.to_bits())
                 };
                 assert_eq!(
                     s.lane(l).as_ref().map(bits),
+                    one.as_ref().map(bits),
+                    "{light:?} lane {l}"
+                );
+                assert_eq!(
+                    via_sample.as_ref().map(bits),
                     one.as_ref().map(bits),
                     "{light:?} lane {l}"
                 );

@@ -9,7 +9,7 @@ use crate::lanes::{self, Vec3x8};
 ///
 /// Inline, with no call into libm (whose `sincosf` was 2–3% of a render,
 /// and whose call made the shading loop spill its registers): `4v` is
-/// rounded to the nearest quarter turn `q` (ties to even), the rest
+/// rounded to the nearest quarter turn `q` (halves away from zero), the rest
 /// `θ ∈ [−π/4, π/4]` goes through Taylor polynomials of degree 9 and 10
 /// (truncation error below 2e-9 — θ¹¹/11! and θ¹²/12! at π/4 — far under
 /// the f32 rounding of ~6e-8), and the quarter turns are applied exactly
@@ -17,7 +17,14 @@ use crate::lanes::{self, Vec3x8};
 #[inline(always)]
 pub fn unit_circle_x8(v: f32x8) -> (f32x8, f32x8) {
     let x = f32x8::splat(4.0) * v;
-    let q = x.round_ties_even();
+    // Nearest quarter turn, halves away from zero as `f32::round` does
+    // (x − trunc x is exact, so the test is too).
+    let whole = x.trunc();
+    let sign = (x & f32x8::splat(-0.0)) | f32x8::ONE;
+    let q = (x - whole)
+        .abs()
+        .simd_ge(f32x8::splat(0.5))
+        .select(whole + sign, whole);
     let theta = (x - q) * f32x8::splat(std::f32::consts::FRAC_PI_2);
     let t2 = theta * theta;
     // Horner form of the series; the constants are reciprocals folded at
@@ -129,6 +136,108 @@ pub fn concentric_disk(u: f32, v: f32) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The one-value formulas the lane forms replaced, kept as the
+    /// reference they must reproduce bit for bit.
+    mod scalar {
+        use glam::Vec3;
+
+        pub fn unit_circle(v: f32) -> (f32, f32) {
+            let x = 4.0 * v;
+            let q = x.round();
+            let theta = (x - q) * std::f32::consts::FRAC_PI_2;
+            let t2 = theta * theta;
+            let term = |k: f32, rest: f32| 1.0 - t2 * (1.0 / k) * rest;
+            let sin = theta
+                * term(
+                    2.0 * 3.0,
+                    term(4.0 * 5.0, term(6.0 * 7.0, term(8.0 * 9.0, 1.0))),
+                );
+            let cos = term(
+                1.0 * 2.0,
+                term(
+                    3.0 * 4.0,
+                    term(5.0 * 6.0, term(7.0 * 8.0, term(9.0 * 10.0, 1.0))),
+                ),
+            );
+            match (q as i32) & 3 {
+                0 => (cos, sin),
+                1 => (-sin, cos),
+                2 => (-cos, -sin),
+                _ => (sin, -cos),
+            }
+        }
+
+        pub fn to_world(local: Vec3, n: Vec3) -> Vec3 {
+            let sign = 1.0f32.copysign(n.z);
+            let a = -1.0 / (sign + n.z);
+            let b = n.x * n.y * a;
+            let t = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+            let b = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+            local.x * t + local.y * b + local.z * n
+        }
+
+        pub fn cosine_hemisphere(u: f32, v: f32) -> Vec3 {
+            let r = u.sqrt();
+            let (c, s) = unit_circle(v);
+            Vec3::new(r * c, r * s, (1.0 - u).max(0.0).sqrt())
+        }
+    }
+
+    #[test]
+    fn lane_forms_are_the_scalar_formulas_bit_for_bit() {
+        // Every eighth of a turn (the quarter-turn ties at 1/8, 3/8, ...),
+        // their neighbours one ULP away, and a spread of other values,
+        // eight different ones per call.
+        let mut vs: Vec<f32> = Vec::new();
+        for k in 0..=8 {
+            let v = k as f32 / 8.0;
+            vs.extend([
+                v,
+                f32::from_bits(v.to_bits().saturating_sub(1)),
+                f32::from_bits(v.to_bits() + 1),
+            ]);
+        }
+        vs.extend((0..1000).map(|i| (i as f32 * 0.618_034).fract()));
+        let normals = [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::new(0.0, -1.0, -0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(0.3, 0.4, 0.866).normalize(),
+            Vec3::new(-0.6, 0.0, -0.8),
+            Vec3::new(1e-4, -2e-4, -1.0).normalize(),
+            Vec3::new(0.2, -0.9, 0.3).normalize(),
+        ];
+        let n = Vec3x8::from_fn(8, |l| normals[l]);
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        for chunk in vs.chunks(8) {
+            let v: [f32; 8] = std::array::from_fn(|l| chunk[l % chunk.len()]);
+            let u: [f32; 8] = std::array::from_fn(|l| v[7 - l].min(0.999_999_9));
+            let (c, s) = unit_circle_x8(f32x8::from(v));
+            let d = cosine_hemisphere_x8(f32x8::from(u), f32x8::from(v));
+            let w = to_world_x8(d, n);
+            for l in 0..8 {
+                let (sc, ss) = scalar::unit_circle(v[l]);
+                assert_eq!(
+                    (c.as_array()[l].to_bits(), s.as_array()[l].to_bits()),
+                    (sc.to_bits(), ss.to_bits()),
+                    "unit_circle({})",
+                    v[l]
+                );
+                let sd = scalar::cosine_hemisphere(u[l], v[l]);
+                assert_eq!(
+                    bits(d.lane(l)),
+                    bits(sd),
+                    "cosine_hemisphere({}, {})",
+                    u[l],
+                    v[l]
+                );
+                let sw = scalar::to_world(sd, normals[l]);
+                assert_eq!(bits(w.lane(l)), bits(sw), "to_world lane {l}");
+            }
+        }
+    }
 
     #[test]
     fn frames_are_orthonormal_in_every_lane() {

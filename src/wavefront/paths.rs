@@ -89,19 +89,6 @@ impl Paths {
         self.alive.truncate(n);
         self.rays.truncate(n);
     }
-
-    /// Sets path `i`'s next ray.
-    #[inline]
-    pub fn set_ray(&mut self, i: usize, origin: Vec3, direction: Vec3, t_max: f32) {
-        let r = &mut self.rays;
-        r.org_x[i] = origin.x;
-        r.org_y[i] = origin.y;
-        r.org_z[i] = origin.z;
-        r.dir_x[i] = direction.x;
-        r.dir_y[i] = direction.y;
-        r.dir_z[i] = direction.z;
-        r.t_max[i] = t_max;
-    }
 }
 
 /// Rays from path vertices toward lights: shadow rays (light sampling) or

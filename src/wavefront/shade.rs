@@ -7,7 +7,7 @@
 //! brought by next-event estimation at vertex `d` has bounced `d + 1` times.
 
 use glam::Vec3;
-use wide::{f32x8, i32x8};
+use wide::f32x8;
 
 use crate::integrator::bsdf::Surface;
 use crate::integrator::lights::{LightSample, LightSamples, LightSet, LightSource};
@@ -94,7 +94,7 @@ pub fn shade(
     for start in (0..n).step_by(LANES) {
         let end = (start + LANES).min(n);
         let mut diffuse = 0u32;
-        let mut albedo = [Vec3::ZERO; LANES];
+        let (mut albedo, mut f) = ([Vec3::ZERO; LANES], [Vec3::ZERO; LANES]);
         for i in start..end {
             paths.alive[i] = false;
             if !hits.is_hit(i) {
@@ -112,9 +112,10 @@ pub fn shade(
                         paths.radiance[i] += paths.throughput[i] * radiance;
                     }
                 }
-                Surface::Diffuse { albedo: a } => {
+                surface @ Surface::Diffuse { albedo: a } => {
                     diffuse |= 1 << (i - start);
                     albedo[i - start] = a;
+                    f[i - start] = surface.f();
                 }
             }
         }
@@ -124,12 +125,12 @@ pub fn shade(
                 end,
                 diffuse,
             };
-            let albedo = Vec3x8::gather(&albedo);
+            let brdf = (Vec3x8::gather(&albedo), Vec3x8::gather(&f));
             shade_diffuse(
                 inputs,
                 (paths, draws, surfaces),
                 &chunk,
-                albedo,
+                brdf,
                 candidates,
                 (shadow, probes),
             );
@@ -158,13 +159,14 @@ struct Chunk {
     diffuse: u32,
 }
 
-/// Shades the diffuse hits of a chunk: next-event estimation into shadow
-/// (or probe) rays, then the next direction and Russian roulette.
+/// Shades the diffuse hits of a chunk (albedo and BRDF value per lane):
+/// next-event estimation into shadow (or probe) rays, then the next
+/// direction and Russian roulette.
 fn shade_diffuse(
     inputs: &ShadeInputs,
     (paths, draws, surfaces): (&mut Paths, &VertexDraws, &SurfacePoints),
     chunk: &Chunk,
-    albedo: Vec3x8,
+    (albedo, f): (Vec3x8, Vec3x8),
     candidates: &mut Vec<Candidate>,
     (shadow, probes): (&mut ShadowRays, &mut ShadowRays),
 ) {
@@ -184,8 +186,7 @@ fn shade_diffuse(
         }
     }
     if direct != 0 {
-        // Lambertian: f = albedo / π.
-        let beta = throughput * (albedo * f32x8::splat(std::f32::consts::FRAC_1_PI));
+        let beta = throughput * f;
         if settings.hemisphere {
             for lane in lanes::each(direct) {
                 let i = chunk.start + lane;
@@ -298,6 +299,7 @@ fn sample_lanes(
     (u, v): (f32x8, f32x8),
 ) -> LightSamples {
     let mut out = [None; LANES];
+    let mut valid = 0;
     for lane in lanes::each(direct) {
         let w = if light.uses_w() {
             paths.stream[start + lane].next_1d()
@@ -306,6 +308,7 @@ fn sample_lanes(
         };
         let (u, v) = (u.as_array()[lane], v.as_array()[lane]);
         out[lane] = light.sample(p.lane(lane), p_out.lane(lane), n.lane(lane), u, v, w);
+        valid |= u32::from(out[lane].is_some()) << lane;
     }
     let field = |f: fn(&LightSample) -> Vec3| {
         Vec3x8::gather(&out.map(|s| s.as_ref().map_or(Vec3::ZERO, f)))
@@ -316,9 +319,7 @@ fn sample_lanes(
         t_max: scalar(|s| s.t_max),
         weight: field(|s| s.weight),
         cos_surface: scalar(|s| s.cos_surface),
-        valid: lanes::each(0xff)
-            .filter(|&l| out[l].is_some())
-            .fold(0, |m, l| m | 1 << l),
+        valid,
     }
 }
 
@@ -403,7 +404,7 @@ fn continue_paths(
             let q = throughput.max_element().min(f32x8::ONE);
             let xi = next_1d_x8(&mut paths.stream[start..chunk.end], roulette);
             alive &= !(xi.simd_ge(q).to_bitmask() & roulette);
-            let in_roulette = lane_mask(roulette);
+            let in_roulette = lanes::lane_mask(roulette);
             throughput = Vec3x8::select(in_roulette, throughput / q, throughput);
         }
     }
@@ -417,22 +418,9 @@ fn continue_paths(
     // Every lane's ray is written (the dead ones' are never read).
     let end = chunk.end;
     let r = &mut paths.rays;
-    next.origin.store(
-        [
-            &mut r.org_x[..end],
-            &mut r.org_y[..end],
-            &mut r.org_z[..end],
-        ],
-        start,
-    );
-    d.store(
-        [
-            &mut r.dir_x[..end],
-            &mut r.dir_y[..end],
-            &mut r.dir_z[..end],
-        ],
-        start,
-    );
+    next.origin
+        .store([&mut r.org_x, &mut r.org_y, &mut r.org_z], start, end);
+    d.store([&mut r.dir_x, &mut r.dir_y, &mut r.dir_z], start, end);
     lanes::store(&mut r.t_max[..end], start, f32x8::splat(f32::INFINITY));
     let throughput = throughput.to_array();
     for lane in lanes::each(alive) {
@@ -442,12 +430,4 @@ fn continue_paths(
         paths.specular[i] = false;
         paths.alive[i] = true;
     }
-}
-
-/// All-ones lanes for the bits of `mask`.
-fn lane_mask(mask: u32) -> f32x8 {
-    let bits = i32x8::from(std::array::from_fn::<i32, LANES, _>(|l| {
-        -((mask >> l) as i32 & 1)
-    }));
-    lanes::from_bits(bits)
 }

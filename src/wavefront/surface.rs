@@ -208,12 +208,9 @@ impl SurfacePoints {
         let flip = ns.dot(ng).simd_lt(L::ZERO);
         let ns = Vec3x8::select(flip, -ns, ns);
 
-        let [px, py, pz] = &mut self.p;
-        p.store([&mut px[..end], &mut py[..end], &mut pz[..end]], start);
-        let [gx, gy, gz] = &mut self.ng;
-        ng.store([&mut gx[..end], &mut gy[..end], &mut gz[..end]], start);
-        let [sx, sy, sz] = &mut self.ns;
-        ns.store([&mut sx[..end], &mut sy[..end], &mut sz[..end]], start);
+        p.store(self.p.each_mut(), start, end);
+        ng.store(self.ng.each_mut(), start, end);
+        ns.store(self.ns.each_mut(), start, end);
         lanes::store(&mut self.err[..end], start, err);
         let front = front.to_bitmask();
         for (lane, f) in self.front[start..end].iter_mut().enumerate() {
