@@ -257,7 +257,14 @@ pub fn run() -> Result<i32> {
         );
     }
     if args.stats {
-        report::stats(&scene, &bvh, &result.stats, render_time, threads);
+        let shading_bytes = renderer.triangles.memory_bytes();
+        report::stats(
+            &scene,
+            (&bvh, shading_bytes),
+            &result.stats,
+            render_time,
+            threads,
+        );
     }
     if !result.complete {
         eprintln!(

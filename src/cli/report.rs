@@ -33,7 +33,14 @@ pub fn timings(
     );
 }
 
-pub fn stats(scene: &Scene, bvh: &Bvh, stats: &Stats, render: Duration, threads: usize) {
+/// `shading_bytes`: the renderer's per-triangle shading records.
+pub fn stats(
+    scene: &Scene,
+    (bvh, shading_bytes): (&Bvh, usize),
+    stats: &Stats,
+    render: Duration,
+    threads: usize,
+) {
     let g = &scene.geometry;
     eprintln!(
         "scene: {} triangles, {} spheres, {} lights, {} materials",
@@ -49,6 +56,11 @@ pub fn stats(scene: &Scene, bvh: &Bvh, stats: &Stats, render: Duration, threads:
         bvh.depth(),
         bvh.memory_bytes() as f64 / 1024.0,
         bvh.memory_bytes() as f64 / bvh.primitive_count().max(1) as f64
+    );
+    eprintln!(
+        "shading records: {:.1} KiB ({:.0} bytes/triangle)",
+        shading_bytes as f64 / 1024.0,
+        shading_bytes as f64 / g.triangles.len().max(1) as f64
     );
     let t = &stats.traversal;
     let per_ray = |x: u64| x as f64 / t.rays.max(1) as f64;

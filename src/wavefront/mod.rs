@@ -83,6 +83,8 @@ pub struct Renderer<'a> {
     pub bvh: &'a Bvh,
     pub surfaces: Vec<Surface>,
     pub lights: LightSet,
+    /// The triangles as the shading stage reads them (see [`surface`]).
+    pub triangles: surface::TriangleRecords,
     /// Problems worth telling the user once (fallback materials, no lights).
     pub warnings: Vec<String>,
 }
@@ -121,6 +123,7 @@ impl<'a> Renderer<'a> {
             bvh,
             surfaces,
             lights,
+            triangles: surface::TriangleRecords::new(&scene.geometry.triangles),
             warnings,
         }
     }
@@ -191,6 +194,7 @@ impl<'a> Renderer<'a> {
         let integrator = &settings.integrator;
         let inputs = shade::ShadeInputs {
             geometry: &self.scene.geometry,
+            triangles: &self.triangles,
             surfaces: &self.surfaces,
             lights: &self.lights,
             settings: integrator,

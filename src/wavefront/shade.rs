@@ -19,7 +19,7 @@ use crate::sampling::warp;
 use crate::scene::Geometry;
 
 use super::paths::{Paths, ShadowRays};
-use super::surface::SurfacePoints;
+use super::surface::{SurfacePoints, TriangleRecords};
 
 /// Buffers the shade stage reuses from wave to wave.
 #[derive(Clone, Debug, Default)]
@@ -32,6 +32,8 @@ pub struct ShadeScratch {
 /// What the shade stage reads besides the paths.
 pub struct ShadeInputs<'a> {
     pub geometry: &'a Geometry,
+    /// The geometry's triangles as the surface stage reads them.
+    pub triangles: &'a TriangleRecords,
     pub surfaces: &'a [Surface],
     pub lights: &'a LightSet,
     pub settings: &'a Settings,
@@ -84,7 +86,7 @@ pub fn shade(
         surfaces,
         candidates,
     } = scratch;
-    surfaces.compute(inputs.geometry, hits, &paths.rays);
+    surfaces.compute(inputs.geometry, inputs.triangles, hits, &paths.rays);
     if settings.view != View::Path {
         show_view(settings.view, hits, surfaces, paths);
         return;
@@ -102,7 +104,7 @@ pub fn shade(
                 continue;
             }
             let depth = paths.depth[i];
-            match inputs.surfaces[inputs.geometry.material(hits.prim[i]) as usize] {
+            match inputs.surfaces[surfaces.material(i) as usize] {
                 Surface::Emitter {
                     radiance,
                     one_sided,
