@@ -4,10 +4,11 @@
 //!
 //! Per triangle hit this is an f64 plane intersection, two normalisations
 //! and an error bound: ~300 instructions as scalar code inside the shading
-//! loop, with two dependent loads (indices, then vertices) in front. Across
-//! paths the same arithmetic fills vector lanes, and the gathers of eight
-//! hits are independent loads the core overlaps. Sphere hits (rare, and
-//! a different formula) stay scalar.
+//! loop. Across paths the same arithmetic fills vector lanes, and the
+//! fetches of eight hits' [`TriangleRecord`]s (one record per triangle,
+//! so no index fetch in front) are independent loads the core overlaps.
+//! The stage also hands on each hit's material. Sphere hits (rare, and a
+//! different formula) stay scalar.
 
 use glam::Vec3;
 use wide::{f32x8, f64x4};
