@@ -194,6 +194,41 @@ fn descend(
     Some((node.child[nearest], masks[nearest]))
 }
 
+/// The any-hit form of [`descend`]: children in slot order, unsorted (an
+/// occluder anywhere ends a ray's search, so order buys little, as for
+/// single rays), and no entry distances kept.
+#[inline(always)]
+fn descend_any(
+    packet: &Packet,
+    node: &WideNode,
+    mask: u32,
+    cull: Lanes,
+    stack: &mut PacketStack,
+) -> Option<(ChildRef, u32)> {
+    let mut slots = node.bounds[0][0]
+        .simd_lt(Lanes::splat(f32::INFINITY))
+        .to_bitmask();
+    let mut first = None;
+    while slots != 0 {
+        let slot = slots.trailing_zeros() as usize;
+        slots &= slots - 1;
+        let (m, _) = packet.test(node, slot, cull, mask);
+        if m == 0 {
+            continue;
+        }
+        if first.is_none() {
+            first = Some((node.child[slot], m));
+        } else {
+            stack.push(PacketEntry {
+                child: node.child[slot].0,
+                mask: m,
+                t_enter: Lanes::ZERO,
+            });
+        }
+    }
+    first
+}
+
 /// Closest hits of the packet's `active` rays. `best` holds each lane's
 /// initial `t_max` (and no hit) and receives the results; `work` the
 /// primitives each ray tested, `visits` the node visits summed over rays.
@@ -261,7 +296,7 @@ pub(crate) fn any(
         if !child.is_leaf() {
             let node = &scene.nodes[child.index()];
             *visits += u64::from(mask.count_ones());
-            if let Some(next) = descend(packet, node, mask, cull, stack) {
+            if let Some(next) = descend_any(packet, node, mask, cull, stack) {
                 current = next;
                 continue;
             }
