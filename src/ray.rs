@@ -80,6 +80,7 @@ impl Rays {
         ]
     }
 
+    #[inline]
     pub fn push(&mut self, origin: Vec3, direction: Vec3, t_max: f32) {
         self.org_x.push(origin.x);
         self.org_y.push(origin.y);

@@ -119,6 +119,7 @@ impl ShadowRays {
         self.path.is_empty()
     }
 
+    #[inline]
     pub fn push(&mut self, path: usize, origin: Vec3, direction: Vec3, t_max: f32, weight: Vec3) {
         self.rays.push(origin, direction, t_max);
         self.path.push(path as u32);
