@@ -48,6 +48,7 @@ impl Paths {
     }
 
     /// Starts a path with a camera ray.
+    #[inline]
     pub fn push(
         &mut self,
         slot: u32,
@@ -67,6 +68,7 @@ impl Paths {
     }
 
     /// Moves path `from` to index `to` (`to < from`), overwriting it.
+    #[inline]
     pub fn move_path(&mut self, from: usize, to: usize) {
         self.slot[to] = self.slot[from];
         self.stream[to] = self.stream[from];
