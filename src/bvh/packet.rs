@@ -137,6 +137,14 @@ impl Packet {
     }
 }
 
+/// The slots of `node` that hold a child (empty ones have +∞ minimum corners).
+#[inline(always)]
+fn occupied(node: &WideNode) -> u32 {
+    node.bounds[0][0]
+        .simd_lt(Lanes::splat(f32::INFINITY))
+        .to_bitmask()
+}
+
 /// Visits the children of `node` entered by rays of `mask`: pushes the far
 /// ones and returns the nearest (along the leading ray), or `None` if no
 /// ray enters any child.
@@ -148,10 +156,7 @@ fn descend(
     cull: Lanes,
     stack: &mut PacketStack,
 ) -> Option<(ChildRef, u32)> {
-    // Occupied slots (empty ones have +∞ minimum corners).
-    let mut slots = node.bounds[0][0]
-        .simd_lt(Lanes::splat(f32::INFINITY))
-        .to_bitmask();
+    let mut slots = occupied(node);
     // Order key: the box centre (doubled) along the leading direction.
     let l = packet.lead;
     let key = (node.bounds[0][0] + node.bounds[1][0]) * Lanes::splat(l.x)
@@ -205,9 +210,7 @@ fn descend_any(
     cull: Lanes,
     stack: &mut PacketStack,
 ) -> Option<(ChildRef, u32)> {
-    let mut slots = node.bounds[0][0]
-        .simd_lt(Lanes::splat(f32::INFINITY))
-        .to_bitmask();
+    let mut slots = occupied(node);
     let mut first = None;
     while slots != 0 {
         let slot = slots.trailing_zeros() as usize;
