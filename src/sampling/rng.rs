@@ -221,6 +221,8 @@ pub struct SampleStream {
 }
 
 impl SampleStream {
+    /// The stream of sample `sample` of pixel `pixel` ([`new_streams`]
+    /// makes eight at once, the same).
     pub fn new(seed: u32, pixel: u32, sample: u32) -> Self {
         let key = hash_words(&[seed, pixel]);
         SampleStream {
@@ -433,6 +435,25 @@ impl StreamLanes {
             pair: field(|s| s.pair),
         }
     }
+}
+
+/// [`SampleStream::new`] for eight (pixel, sample) pairs at once.
+#[inline]
+pub fn new_streams(seed: u32, pixels: [u32; 8], samples: [u32; 8]) -> [SampleStream; 8] {
+    // hash_words(&[seed, pixel]) and hash_words(&[key, sample]), with the
+    // seed's round shared by all lanes.
+    let start = 0x9e37_79b9u32;
+    let seeded = u32x8::splat(hash_combine(start, seed));
+    let key = hash_combine(seeded, u32x8::from(pixels));
+    let base = hash_combine(hash_combine(u32x8::splat(start), key), u32x8::from(samples));
+    let (key, base) = (key.to_array(), base.to_array());
+    std::array::from_fn(|l| SampleStream {
+        key: key[l],
+        sample: samples[l],
+        base: base[l],
+        dimension: 0,
+        pair: 1,
+    })
 }
 
 /// [`SampleStream::pixel_offset`] of up to eight streams at once (lanes
@@ -649,6 +670,20 @@ mod tests {
                     assert_eq!(x.as_array()[lane], e.next_1d(), "lane {lane}");
                 }
                 assert_eq!(streams[lane].dimension, e.dimension, "lane {lane}");
+            }
+        }
+    }
+
+    #[test]
+    fn batched_streams_are_the_scalar_ones() {
+        for seed in [0, 7, u32::MAX] {
+            let pixels: [u32; 8] = std::array::from_fn(|l| l as u32 * 1001 + seed);
+            let samples: [u32; 8] = std::array::from_fn(|l| (l as u32).wrapping_mul(0x9e37_79b9));
+            let streams = new_streams(seed, pixels, samples);
+            for l in 0..8 {
+                let one = SampleStream::new(seed, pixels[l], samples[l]);
+                let fields = |s: &SampleStream| (s.key, s.sample, s.base, s.dimension, s.pair);
+                assert_eq!(fields(&streams[l]), fields(&one), "seed {seed} lane {l}");
             }
         }
     }

@@ -5,8 +5,8 @@
 //! owns one result slot. Waves take items in order until full.
 
 use crate::film::Tile;
-use crate::sampling::rng::pixel_offsets;
-use crate::sampling::{SampleStream, warp};
+use crate::sampling::rng::{new_streams, pixel_offsets};
+use crate::sampling::warp;
 use crate::scene::{Camera, CameraView};
 
 use super::paths::Paths;
@@ -69,15 +69,16 @@ pub fn refill(
     for first in (queue.next..end).step_by(8) {
         let items = first..(first + 8).min(end);
         let mut pixels = [(0u32, 0u32); 8];
-        let mut streams = [SampleStream::new(cam.seed, 0, 0); 8];
+        let (mut pixel_ids, mut samples) = ([0u32; 8], [0u32; 8]);
         for (k, item) in items.clone().enumerate() {
             let local = queue.active[item / spp];
-            let sample = queue.first_sample + (item % spp) as u32;
+            samples[k] = queue.first_sample + (item % spp) as u32;
             let x = queue.tile.x0 + local % queue.tile.width;
             let row = queue.tile.y0 + local / queue.tile.width;
             pixels[k] = (x, row);
-            streams[k] = SampleStream::new(cam.seed, row * width + x, sample);
+            pixel_ids[k] = row * width + x;
         }
+        let streams = new_streams(cam.seed, pixel_ids, samples);
         let n = items.len();
         let (us, vs) = if cam.pixel_centre {
             ([0.5; 8], [0.5; 8])
