@@ -82,12 +82,6 @@ pub struct Vec3x8 {
 }
 
 impl Vec3x8 {
-    pub const ZERO: Vec3x8 = Vec3x8 {
-        x: f32x8::ZERO,
-        y: f32x8::ZERO,
-        z: f32x8::ZERO,
-    };
-
     #[inline(always)]
     pub fn new(x: f32x8, y: f32x8, z: f32x8) -> Self {
         Vec3x8 { x, y, z }

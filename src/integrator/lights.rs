@@ -9,7 +9,7 @@ use glam::Vec3;
 use wide::f32x8;
 
 use super::bsdf::Surface;
-use crate::lanes::Vec3x8;
+use crate::lanes::{LANES, Vec3x8};
 use crate::ray::{gamma, offset_by, offset_by_x8};
 use crate::sampling::warp;
 use crate::scene::{Light, Scene};
@@ -239,6 +239,22 @@ pub struct LightSamples {
 }
 
 impl LightSamples {
+    /// Eight one-point samples side by side (`None`: not valid).
+    pub fn from_lanes(samples: &[Option<LightSample>; LANES]) -> LightSamples {
+        let vector = |f: fn(&LightSample) -> Vec3| {
+            Vec3x8::from_fn(LANES, |l| samples[l].as_ref().map_or(Vec3::ZERO, f))
+        };
+        let scalar =
+            |f: fn(&LightSample) -> f32| f32x8::from(samples.map(|s| s.as_ref().map_or(0.0, f)));
+        LightSamples {
+            direction: vector(|s| s.direction),
+            t_max: scalar(|s| s.t_max),
+            weight: vector(|s| s.weight),
+            cos_surface: scalar(|s| s.cos_surface),
+            valid: (0..LANES).fold(0, |m, l| m | (u32::from(samples[l].is_some()) << l)),
+        }
+    }
+
     /// The sample of `lane`, if valid.
     #[inline]
     pub fn lane(&self, lane: usize) -> Option<LightSample> {

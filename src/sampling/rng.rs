@@ -110,12 +110,19 @@ fn hash_combine<W: Word>(h: W, w: W) -> W {
     hash(h ^ w.add(W::splat(0x7f4a_7c15)).add(h << 6).add(h >> 2))
 }
 
+/// Where [`hash_words`] starts.
+const HASH_START: u32 = 0x9e37_79b9;
+
 /// Hash of several words, order-sensitive.
 #[inline]
 pub fn hash_words(words: &[u32]) -> u32 {
-    words
-        .iter()
-        .fold(0x9e37_79b9u32, |h, &w| hash_combine(h, w))
+    words.iter().fold(HASH_START, |h, &w| hash_combine(h, w))
+}
+
+/// `hash_words(&[a, b])`, for one stream or eight.
+#[inline(always)]
+fn hash_pair<W: Word>(a: W, b: W) -> W {
+    hash_combine(hash_combine(W::splat(HASH_START), a), b)
 }
 
 /// Maps 32 random bits to a float in [0, 1).
@@ -184,7 +191,7 @@ struct PairSeeds<W> {
 impl<W: Word> PairSeeds<W> {
     #[inline(always)]
     fn new(key: W, pair: W) -> Self {
-        let seed = hash_combine(hash_combine(W::splat(0x9e37_79b9), key), pair);
+        let seed = hash_pair(key, pair);
         PairSeeds {
             index: seed,
             x: hash(seed ^ W::splat(0x1b87_3593)),
@@ -224,11 +231,11 @@ impl SampleStream {
     /// The stream of sample `sample` of pixel `pixel` ([`new_streams`]
     /// makes eight at once, the same).
     pub fn new(seed: u32, pixel: u32, sample: u32) -> Self {
-        let key = hash_words(&[seed, pixel]);
+        let key = hash_pair(seed, pixel);
         SampleStream {
             key,
             sample,
-            base: hash_words(&[key, sample]),
+            base: hash_pair(key, sample),
             dimension: 0,
             pair: 1,
         }
@@ -440,12 +447,8 @@ impl StreamLanes {
 /// [`SampleStream::new`] for eight (pixel, sample) pairs at once.
 #[inline]
 pub fn new_streams(seed: u32, pixels: [u32; 8], samples: [u32; 8]) -> [SampleStream; 8] {
-    // hash_words(&[seed, pixel]) and hash_words(&[key, sample]), with the
-    // seed's round shared by all lanes.
-    let start = 0x9e37_79b9u32;
-    let seeded = u32x8::splat(hash_combine(start, seed));
-    let key = hash_combine(seeded, u32x8::from(pixels));
-    let base = hash_combine(hash_combine(u32x8::splat(start), key), u32x8::from(samples));
+    let key = hash_pair(u32x8::splat(seed), u32x8::from(pixels));
+    let base = hash_pair(key, u32x8::from(samples));
     let (key, base) = (key.to_array(), base.to_array());
     std::array::from_fn(|l| SampleStream {
         key: key[l],

@@ -10,7 +10,7 @@ use glam::Vec3;
 use wide::f32x8;
 
 use crate::integrator::bsdf::Surface;
-use crate::integrator::lights::{LightSample, LightSamples, LightSet, LightSource};
+use crate::integrator::lights::{LightSamples, LightSet, LightSource};
 use crate::integrator::{Settings, View};
 use crate::lanes::{self, LANES, Vec3x8};
 use crate::ray::{Hits, offset_by_x8};
@@ -301,7 +301,6 @@ fn sample_lanes(
     (u, v): (f32x8, f32x8),
 ) -> LightSamples {
     let mut out = [None; LANES];
-    let mut valid = 0;
     for lane in lanes::each(direct) {
         let w = if light.uses_w() {
             paths.stream[start + lane].next_1d()
@@ -310,19 +309,8 @@ fn sample_lanes(
         };
         let (u, v) = (u.as_array()[lane], v.as_array()[lane]);
         out[lane] = light.sample(p.lane(lane), p_out.lane(lane), n.lane(lane), u, v, w);
-        valid |= u32::from(out[lane].is_some()) << lane;
     }
-    let field = |f: fn(&LightSample) -> Vec3| {
-        Vec3x8::gather(&out.map(|s| s.as_ref().map_or(Vec3::ZERO, f)))
-    };
-    let scalar = |f: fn(&LightSample) -> f32| f32x8::from(out.map(|s| s.as_ref().map_or(0.0, f)));
-    LightSamples {
-        direction: field(|s| s.direction),
-        t_max: scalar(|s| s.t_max),
-        weight: field(|s| s.weight),
-        cos_surface: scalar(|s| s.cos_surface),
-        valid,
-    }
+    LightSamples::from_lanes(&out)
 }
 
 /// Pushes the chunk's shadow rays path by path, each path's in light and
