@@ -172,7 +172,8 @@ fn rays_strategy(n: usize, extent: f32) -> impl Strategy<Value = Rays> {
 
 /// Bundles of 8 rays from one origin in a narrow cone, as the samples of
 /// a pixel or the shadow rays of one path vertex are: most bundles lie in
-/// one octant and are traced as packets.
+/// one octant and are traced as packets (closest hit); any-hit queries
+/// trace every slot of two or more rays as a bundle.
 fn coherent_rays_strategy(bundles: usize, extent: f32) -> impl Strategy<Value = Rays> {
     proptest::collection::vec(
         (
@@ -292,7 +293,7 @@ fn degenerate_inputs() {
 /// Rays that cannot hit anything — non-finite origin or direction, zero
 /// or subnormal direction, NaN or negative `t_max` — report no hit and no occlusion in
 /// every mode, alone or next to valid rays in the same batch slot (which
-/// then may go through packet traversal).
+/// then may go through packet or bundle traversal).
 #[test]
 fn invalid_rays_never_hit() {
     let positions = vec![

@@ -19,10 +19,13 @@
 //! * [`traverse`](self::traverse): the batch is first culled [`WIDTH`]
 //!   rays at a time against the scene bounds, then each surviving ray walks
 //!   the tree nearest child first with a conservative (Ize 2013) slab test.
-//! * [`packet`](self::packet): when those [`WIDTH`] rays all point into one
-//!   octant (the samples of a pixel, the shadow rays of a path vertex) they
-//!   walk the tree together instead, one lane per ray, with the same
-//!   answers bit for bit.
+//! * [`packet`](self::packet): closest hit — when those [`WIDTH`] rays all
+//!   point into one octant (the samples of a pixel) they walk the tree
+//!   together instead, one lane per ray, with the same answers bit for bit.
+//! * [`bundle`](self::bundle): any hit — two or more rays of a slot walk
+//!   the tree together, each tested alone at every node it enters, sharing
+//!   the walk's control (the shadow rays of one path vertex share all of
+//!   it).
 //! * [`triangle`](self::triangle): watertight ray/triangle test (Woop,
 //!   Benthin, Wald 2013), [`TRI_WIDTH`] triangles per SIMD test.
 //! * [`sphere`](self::sphere): numerically stable ray/sphere test; spheres
@@ -44,6 +47,7 @@
 //! PERF.md).
 
 mod build;
+mod bundle;
 mod flatten;
 mod packet;
 mod sphere;
@@ -372,24 +376,27 @@ impl Bvh {
         let (mut nodes, mut prims) = (0u64, 0u64);
         let scene = self.scene();
         let mut stack = traverse::new_stack();
-        let mut packet_stack = packet::new_packet_stack();
+        let mut bundle_stack = bundle::new_bundle_stack();
         let src = ray_src(rays);
         for start in (0..n).step_by(WIDTH) {
             let (cull, candidates) = self.cull(&scene, &src, start);
-            if let Some(scene) = &scene
-                && let Some((packet, active)) = Self::packet(&src, start, &cull)
+            // Two or more rays walk the tree as a bundle; a lone ray walks
+            // it alone (a bundle of one would only add bookkeeping).
+            if let (Some(scene), Some(c)) = (&scene, &cull)
+                && c.mask.count_ones() >= 2
             {
+                let bundle = bundle::Bundle::new(&src, start, c);
                 let end = (start + WIDTH).min(n);
                 let t_max: [f32; WIDTH] = std::array::from_fn(|lane| {
                     rays.t_max.get(start + lane).copied().unwrap_or(0.0)
                 });
                 let mut work = [traverse::Work::default(); WIDTH];
                 let mut visits = 0;
-                let hit = packet::any(
+                let hit = bundle::any(
                     scene,
-                    &mut packet_stack,
-                    &packet,
-                    active,
+                    &mut bundle_stack,
+                    &bundle,
+                    c.mask,
                     &t_max,
                     &mut work,
                     &mut visits,

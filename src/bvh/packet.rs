@@ -1,11 +1,11 @@
-//! Packet traversal: [`WIDTH`] rays walk the tree together, one SIMD lane
-//! per ray.
+//! Packet traversal for closest-hit queries: [`WIDTH`] rays walk the tree
+//! together, one SIMD lane per ray.
 //!
 //! Single-ray traversal tests one ray against a node's [`WIDTH`] child
 //! boxes at once; most of its cost per node is not that test but the
 //! control around it (sorting the children hit, the stack, the branches).
-//! Rays that travel together — the samples of one pixel, the shadow rays of
-//! one path vertex — visit nearly the same nodes, so here that control is
+//! Rays that travel together — the samples of one pixel — visit nearly the
+//! same nodes, so here that control is
 //! paid once per node for the whole packet: each child box is tested
 //! against all rays at once (lanes = rays), the children hit by any active
 //! ray are visited nearest first along the packet's leading ray, and each
@@ -133,7 +133,7 @@ impl Packet {
             &self.inv,
             cull,
         );
-        (m & mask, t_enter)
+        (m.to_bitmask() & mask, t_enter)
     }
 }
 
@@ -199,39 +199,6 @@ fn descend(
     Some((node.child[nearest], masks[nearest]))
 }
 
-/// The any-hit form of [`descend`]: children in slot order, unsorted (an
-/// occluder anywhere ends a ray's search, so order buys little, as for
-/// single rays), and no entry distances kept.
-#[inline(always)]
-fn descend_any(
-    packet: &Packet,
-    node: &WideNode,
-    mask: u32,
-    cull: Lanes,
-    stack: &mut PacketStack,
-) -> Option<(ChildRef, u32)> {
-    let mut slots = occupied(node);
-    let mut first = None;
-    while slots != 0 {
-        let slot = slots.trailing_zeros() as usize;
-        slots &= slots - 1;
-        let (m, _) = packet.test(node, slot, cull, mask);
-        if m == 0 {
-            continue;
-        }
-        if first.is_none() {
-            first = Some((node.child[slot], m));
-        } else {
-            stack.push(PacketEntry {
-                child: node.child[slot].0,
-                mask: m,
-                t_enter: Lanes::ZERO,
-            });
-        }
-    }
-    first
-}
-
 /// Closest hits of the packet's `active` rays. `best` holds each lane's
 /// initial `t_max` (and no hit) and receives the results; `work` the
 /// primitives each ray tested, `visits` the node visits summed over rays.
@@ -270,55 +237,6 @@ pub(crate) fn closest(
                 return;
             };
             let m = e.mask & e.t_enter.simd_le(packet.cull(t_best)).to_bitmask();
-            if m != 0 {
-                current = (ChildRef(e.child), m);
-                break;
-            }
-        }
-    }
-}
-
-/// Any-hit test of the packet's `active` rays (each up to its `t_max`);
-/// returns the mask of occluded rays. Work is counted as in [`closest`].
-pub(crate) fn any(
-    scene: &Scene,
-    stack: &mut PacketStack,
-    packet: &Packet,
-    active: u32,
-    t_max: &[f32; WIDTH],
-    work: &mut [Work; WIDTH],
-    visits: &mut u64,
-) -> u32 {
-    let cull = packet.cull(Lanes::from(*t_max));
-    // Rays still looking for an occluder.
-    let mut open = active;
-    stack.clear();
-    let mut current = (scene.root, active);
-    loop {
-        let (child, mask) = current;
-        if !child.is_leaf() {
-            let node = &scene.nodes[child.index()];
-            *visits += u64::from(mask.count_ones());
-            if let Some(next) = descend_any(packet, node, mask, cull, stack) {
-                current = next;
-                continue;
-            }
-        } else {
-            for i in crate::lanes::each(mask) {
-                let ray = (packet.org[i], packet.dir[i], t_max[i]);
-                if scene.leaf_occludes(child, ray, &packet.tri[i], &mut work[i]) {
-                    open &= !(1 << i);
-                }
-            }
-            if open == 0 {
-                return active;
-            }
-        }
-        loop {
-            let Some(e) = stack.pop() else {
-                return active & !open;
-            };
-            let m = e.mask & open;
             if m != 0 {
                 current = (ChildRef(e.child), m);
                 break;

@@ -74,7 +74,7 @@ pub(crate) struct Scene<'a> {
 }
 
 /// Per-ray constants of the slab test.
-struct RayBox {
+pub(crate) struct RayBox {
     o: [Lanes; 3],
     inv: [Lanes; 3],
     /// 0 if the direction along the axis is positive (enter at min), else 1.
@@ -93,6 +93,13 @@ impl RayBox {
     /// Returns the mask of children hit within `[0, t_far]` and their entry distances.
     #[inline(always)]
     fn test(&self, node: &WideNode, t_far: f32) -> (u32, Lanes) {
+        let (hit, t_enter) = self.test_lanes(node, t_far);
+        (hit.to_bitmask(), t_enter)
+    }
+
+    /// [`test`](Self::test) with the mask as all-ones lanes.
+    #[inline(always)]
+    pub fn test_lanes(&self, node: &WideNode, t_far: f32) -> (Lanes, Lanes) {
         let b = &node.bounds;
         // `& 1`: the plane indices are 0 or 1, which lets the compiler drop
         // six bounds checks per node.
@@ -112,7 +119,7 @@ impl RayBox {
 /// scene box — so all of them make the same decision for the same ray and
 /// box: entry and exit distances from the `near` and `far` planes of each
 /// axis, the exit widened by 1 + 2γ₃ (Ize) and capped at `cull`. Returns
-/// the mask of lanes entered within `[0, cull]` and their entry distances.
+/// the lanes entered within `[0, cull]` (all ones) and their entry distances.
 #[inline(always)]
 pub(crate) fn slab_test(
     near: [Lanes; 3],
@@ -120,7 +127,7 @@ pub(crate) fn slab_test(
     o: &[Lanes; 3],
     inv: &[Lanes; 3],
     cull: Lanes,
-) -> (u32, Lanes) {
+) -> (Lanes, Lanes) {
     let mut t_enter = Lanes::ZERO;
     let mut t_exit = Lanes::splat(f32::INFINITY);
     for axis in 0..3 {
@@ -132,7 +139,7 @@ pub(crate) fn slab_test(
         t_exit = t1.fast_min(t_exit);
     }
     let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(cull);
-    (t_enter.simd_le(t_exit).to_bitmask(), t_enter)
+    (t_enter.simd_le(t_exit), t_enter)
 }
 
 /// What the batch cull ([`may_hit`]) found for (up to) [`WIDTH`] rays,
@@ -166,7 +173,7 @@ impl Cull {
     /// Slab-test constants of the ray in `lane`, whose origin is `o`: the
     /// values the cull computed, so box decisions agree exactly.
     #[inline(always)]
-    fn ray_box(&self, lane: usize, o: Vec3) -> RayBox {
+    pub fn ray_box(&self, lane: usize, o: Vec3) -> RayBox {
         RayBox {
             o: [Lanes::splat(o.x), Lanes::splat(o.y), Lanes::splat(o.z)],
             inv: [0, 1, 2].map(|axis| Lanes::splat(self.inv[axis][lane])),
@@ -232,7 +239,7 @@ pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start
     let t_cull = t_max * Lanes::splat(T_FAR_MARGIN) + slack;
     let (hit, _) = slab_test(near, far, &o, &inv, t_cull);
     Cull {
-        mask: hit & valid.to_bitmask() & ((1u32 << (end - start)) - 1),
+        mask: hit.to_bitmask() & valid.to_bitmask() & ((1u32 << (end - start)) - 1),
         inv: inv.map(Lanes::to_array),
         slack: slack.to_array(),
         // ±0 gives ±∞, whose sign still picks the right near plane.

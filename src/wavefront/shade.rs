@@ -315,7 +315,7 @@ fn sample_lanes(
 
 /// Pushes the chunk's shadow rays path by path, each path's in light and
 /// sample order: the rays of one vertex stay consecutive (they share an
-/// origin and mostly an octant, so they trace as a packet), and each path
+/// origin and light, so they walk the tree as one bundle), and each path
 /// adds up its light in the same order whatever the lane layout.
 fn push_shadow_rays(
     start: usize,
