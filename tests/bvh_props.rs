@@ -213,6 +213,35 @@ proptest! {
         compare(&g, &rays).map_err(TestCaseError::fail)?;
     }
 
+    /// A room (floor, ceiling, four walls: the large flat pieces the SAH
+    /// build gives root slots of their own) around a random soup, with
+    /// rays from inside and outside it, coherent and not.
+    #[test]
+    fn room_around_a_soup(
+        tris in proptest::collection::vec((vec3(-0.5..0.5), vec3(-0.1..0.1), vec3(-0.1..0.1)), 1..200),
+        rays in rays_strategy(256, 1.2),
+        bundles in coherent_rays_strategy(16, 1.2),
+    ) {
+        let mut all = tris;
+        let corners = |x: [f32; 2], y: [f32; 2], z: [f32; 2], along_x: bool| {
+            // Two triangles covering an axis-aligned rectangle.
+            let a = Vec3::new(x[0], y[0], z[0]);
+            let c = Vec3::new(x[1], y[1], z[1]);
+            let b = if along_x { Vec3::new(x[1], y[0], z[0]) } else { Vec3::new(x[0], y[1], z[0]) };
+            let d = a + c - b;
+            [(a, b - a, c - a), (a, c - a, d - a)]
+        };
+        all.extend(corners([-1.0, 1.0], [-1.0, -1.0], [-1.0, 1.0], true));
+        all.extend(corners([-1.0, 1.0], [1.0, 1.0], [-1.0, 1.0], true));
+        all.extend(corners([-1.0, -1.0], [-1.0, 1.0], [-1.0, 1.0], false));
+        all.extend(corners([1.0, 1.0], [-1.0, 1.0], [-1.0, 1.0], false));
+        all.extend(corners([-1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], true));
+        all.extend(corners([-1.0, 1.0], [-1.0, 1.0], [1.0, 1.0], true));
+        let g = soup(all, Vec::new());
+        compare(&g, &rays).map_err(TestCaseError::fail)?;
+        compare(&g, &bundles).map_err(TestCaseError::fail)?;
+    }
+
     #[test]
     fn random_soup(
         tris in proptest::collection::vec((vec3(-1.0..1.0), vec3(-0.3..0.3), vec3(-0.3..0.3)), 1..400),

@@ -37,6 +37,10 @@ pub(crate) struct BuildParams {
     pub lanes: usize,
     /// Leaves never hold more than this many primitives.
     pub max_leaf: usize,
+    /// Slots of the root wide node: the large flat pieces of the scene
+    /// (walls, floors) get one each when they fit (see `isolate_large`);
+    /// 0 turns this off.
+    pub top_slots: usize,
 }
 
 /// Depth after which splits fall back to the object median, which halves
@@ -78,6 +82,12 @@ impl Bounds {
             min: self.min.min(p),
             max: self.max.max(p),
         }
+    }
+
+    #[inline]
+    fn volume(self) -> f32 {
+        let d = (self.max - self.min).max(Vec3A::ZERO);
+        d.x * d.y * d.z
     }
 
     /// Half the surface area (the factor 2 cancels in every SAH comparison).
@@ -162,8 +172,124 @@ pub(crate) fn build(
         triangle_count,
         params,
     };
-    let root = build_node(&ctx, &mut order, 0, 0, None);
+    let root = match isolate_large(&ctx, &mut order) {
+        Some(parts) => build_parts(&ctx, &mut order, &parts),
+        None => build_node(&ctx, &mut order, 0, 0, None),
+    };
     (Some(root), order)
+}
+
+/// Builds each of `parts` (consecutive ranges of `order`, by length) as its
+/// own subtree and joins them in a balanced binary tree (which the wide
+/// layout collapses into the root's slots).
+fn build_parts(ctx: &Ctx, order: &mut [u32], parts: &[usize]) -> BuildNode {
+    let mut nodes = Vec::with_capacity(parts.len());
+    let mut rest = order;
+    let mut offset = 0;
+    for &len in parts {
+        let (part, tail) = rest.split_at_mut(len);
+        nodes.push(build_node(ctx, part, offset, 0, None));
+        offset += len;
+        rest = tail;
+    }
+    join(nodes)
+}
+
+fn join(mut nodes: Vec<BuildNode>) -> BuildNode {
+    if nodes.len() == 1 {
+        return nodes.pop().unwrap();
+    }
+    let right = join(nodes.split_off(nodes.len() / 2));
+    let left = join(nodes);
+    BuildNode::Inner {
+        bounds: left.bounds().union(right.bounds()),
+        count: left.count() + right.count(),
+        children: Box::new([left, right]),
+    }
+}
+
+/// A triangle is large if its box's surface area exceeds this fraction of
+/// the scene box's.
+const LARGE_AREA: f32 = 0.02;
+
+/// Large triangles form one flat piece while their boxes' union has at
+/// most this fraction of the scene box's volume.
+const FLAT_VOLUME: f32 = 1e-3;
+
+/// Finds the scene's large flat pieces — the walls, floor and ceiling of a
+/// room — and, if they and the rest fit in `ctx.params.top_slots` subtrees,
+/// reorders `order` as [piece 1, piece 2, …, the rest] and returns the
+/// lengths of those ranges.
+///
+/// The SAH prices a box by its surface area, which is the chance that a
+/// ray from *outside* enters it. Inside a room every ray starts inside
+/// the room, so a leaf holding the walls (whose box is the room) is
+/// entered, and its triangles tested, by every ray, while a wall's own flat
+/// box is entered only by rays that reach that wall — shadow rays toward
+/// a ceiling light never do. The binned SAH keeps the walls together
+/// because no single split helps: any two perpendicular walls already span
+/// the room. Giving each flat piece its own subtree, and so its own slot
+/// of the root, is that missing look-ahead. Scenes without large triangles
+/// (most meshes) are built exactly as before.
+fn isolate_large(ctx: &Ctx, order: &mut [u32]) -> Option<Vec<usize>> {
+    let slots = ctx.params.top_slots;
+    if slots < 2 {
+        return None;
+    }
+    let scene = ctx.bounds.iter().fold(Bounds::EMPTY, |a, b| a.union(*b));
+    let (area, volume) = (scene.half_area(), scene.volume());
+    let large: Vec<u32> = (0..ctx.triangle_count)
+        .filter(|&id| ctx.bounds[id as usize].half_area() > LARGE_AREA * area)
+        .collect();
+    // The rest must not be empty, and a room's worth of large triangles
+    // is a few dozen: clustering is cubic in their number.
+    if large.is_empty() || large.len() == order.len() || large.len() > 16 * slots {
+        return None;
+    }
+    // Agglomerative clustering: merge the two pieces whose union is
+    // flattest while it stays flat.
+    let mut pieces: Vec<(Bounds, Vec<u32>)> = large
+        .iter()
+        .map(|&id| (ctx.bounds[id as usize], vec![id]))
+        .collect();
+    loop {
+        let mut best: Option<(f32, usize, usize)> = None;
+        for i in 0..pieces.len() {
+            for j in i + 1..pieces.len() {
+                let v = pieces[i].0.union(pieces[j].0).volume();
+                if v <= FLAT_VOLUME * volume && best.is_none_or(|b| v < b.0) {
+                    best = Some((v, i, j));
+                }
+            }
+        }
+        let Some((_, i, j)) = best else { break };
+        let (b, ids) = pieces.swap_remove(j);
+        pieces[i].0 = pieces[i].0.union(b);
+        pieces[i].1.extend(ids);
+    }
+    // Each piece and the rest get a slot of the root, or nothing changes.
+    if pieces.len() + 1 > slots {
+        return None;
+    }
+    let mut is_large = vec![false; ctx.bounds.len()];
+    let mut parts = Vec::with_capacity(pieces.len() + 1);
+    let mut k = 0;
+    for (_, ids) in &pieces {
+        for &id in ids {
+            is_large[id as usize] = true;
+            order[k] = id;
+            k += 1;
+        }
+        parts.push(ids.len());
+    }
+    parts.push(order.len() - k);
+    for id in 0..ctx.bounds.len() as u32 {
+        if !is_large[id as usize] {
+            order[k] = id;
+            k += 1;
+        }
+    }
+    Some(parts)
 }
 
 /// Bounds of the primitives and of their centroids.
@@ -496,6 +622,7 @@ mod tests {
                 traversal_cost: 1.0,
                 lanes: 4,
                 max_leaf: 8,
+                top_slots: 8,
             };
             let (root, order) = build(&bounds, 5000, params);
             let mut seen = Vec::new();
@@ -503,5 +630,104 @@ mod tests {
             seen.sort();
             assert_eq!(seen, (0..10_000).collect::<Vec<u32>>());
         }
+    }
+
+    /// Leaves of `node` as (bounds, primitive ids), left to right.
+    fn leaves(node: &BuildNode, order: &[u32], out: &mut Vec<(Aabb, Vec<u32>)>) {
+        match node {
+            BuildNode::Leaf {
+                bounds,
+                start,
+                count,
+            } => out.push((
+                *bounds,
+                order[*start as usize..(*start + *count) as usize].to_vec(),
+            )),
+            BuildNode::Inner { children, .. } => {
+                leaves(&children[0], order, out);
+                leaves(&children[1], order, out);
+            }
+        }
+    }
+
+    /// A room: floor, ceiling and three walls, two triangles each (ids
+    /// 0..10, in that order), around 200 small triangles (a mesh inside).
+    fn room() -> Vec<Aabb> {
+        let wall = |min: [f32; 3], max: [f32; 3]| Aabb {
+            min: Vec3::from(min),
+            max: Vec3::from(max),
+        };
+        let planes = [
+            wall([-1.0, 0.0, -1.0], [1.0, 0.0, 1.0]),
+            wall([-1.0, 1.5, -1.0], [1.0, 1.5, 1.0]),
+            wall([-1.0, 0.0, -1.0], [-1.0, 1.5, 1.0]),
+            wall([1.0, 0.0, -1.0], [1.0, 1.5, 1.0]),
+            wall([-1.0, 0.0, -1.0], [1.0, 1.5, -1.0]),
+        ];
+        let mut bounds: Vec<Aabb> = planes.iter().flat_map(|&p| [p, p]).collect();
+        for i in 0..200 {
+            let p = Vec3::new((i % 10) as f32 * 0.03, 0.2 + (i / 10) as f32 * 0.02, 0.1);
+            bounds.push(Aabb {
+                min: p,
+                max: p + Vec3::splat(0.02),
+            });
+        }
+        bounds
+    }
+
+    fn sah(top_slots: usize) -> BuildParams {
+        BuildParams {
+            sah: true,
+            bins: 16,
+            traversal_cost: 2.0,
+            lanes: 8,
+            max_leaf: 8,
+            top_slots,
+        }
+    }
+
+    #[test]
+    fn walls_of_a_room_get_leaves_of_their_own() {
+        let bounds = room();
+        let (root, order) = build(&bounds, bounds.len() as u32, sah(8));
+        let mut found = Vec::new();
+        leaves(&root.unwrap(), &order, &mut found);
+        // Each wall is a leaf holding exactly its two triangles, with the
+        // wall's flat box.
+        for wall in 0..5u32 {
+            let ids = vec![2 * wall, 2 * wall + 1];
+            let leaf = found.iter().find(|(_, l)| {
+                let mut l = l.clone();
+                l.sort();
+                l == ids
+            });
+            let (b, _) = leaf.unwrap_or_else(|| panic!("wall {wall} shares a leaf: {found:?}"));
+            assert_eq!(*b, bounds[2 * wall as usize]);
+        }
+        // Without the isolation, the SAH puts walls together in one
+        // room-sized leaf (the case this exists for).
+        let (root, order) = build(&bounds, bounds.len() as u32, sah(0));
+        let mut plain = Vec::new();
+        leaves(&root.unwrap(), &order, &mut plain);
+        assert!(
+            plain
+                .iter()
+                .any(|(_, l)| l.iter().filter(|&&id| id < 10).count() > 2),
+            "plain SAH now separates the walls itself: {plain:?}"
+        );
+    }
+
+    #[test]
+    fn isolation_keeps_to_the_root_slots() {
+        // Five walls and the rest do not fit in five slots: the build is
+        // the plain SAH one.
+        let bounds = room();
+        let (root, order) = build(&bounds, bounds.len() as u32, sah(5));
+        let (plain, plain_order) = build(&bounds, bounds.len() as u32, sah(0));
+        assert_eq!(order, plain_order);
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        leaves(&root.unwrap(), &order, &mut a);
+        leaves(&plain.unwrap(), &plain_order, &mut b);
+        assert_eq!(a.len(), b.len());
     }
 }

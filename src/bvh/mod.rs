@@ -200,6 +200,7 @@ impl Bvh {
                 traversal_cost: 2.0,
                 lanes: TRI_WIDTH,
                 max_leaf: 8,
+                top_slots: WIDTH,
             },
             _ => BuildParams {
                 sah: false,
@@ -207,6 +208,7 @@ impl Bvh {
                 traversal_cost: 0.0,
                 lanes: 1,
                 max_leaf: 4,
+                top_slots: 0,
             },
         };
         let (root, order) = build::build(&bounds, tri_count as u32, params);
