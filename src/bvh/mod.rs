@@ -68,6 +68,16 @@ use flatten::{ChildRef, WideNode};
 use sphere::PackedSphere;
 use triangle::TriGroup;
 
+/// How far before a surface a ray must end, as a multiple of the
+/// coordinate magnitudes involved (the ray's length and origin and the
+/// scene's extent, each as its largest component), for the traversal to
+/// cull the box of that surface rather than enter it, when the box lies in
+/// the plane the ray ends at (a flat emitter): the box cull widens a ray's
+/// end by `SLACK_ULPS` of those magnitudes, up to √3 apart between a
+/// component and the length, and this doubles the bound for the rounding
+/// of the test itself.
+pub const END_CLEARANCE: f32 = 4.0 * traverse::SLACK_ULPS;
+
 /// SIMD register type of the node and triangle tests.
 pub(crate) type Lanes = wide::f32x8;
 /// Children per node: the lane count of [`Lanes`].

@@ -9,6 +9,7 @@ use glam::Vec3;
 use wide::f32x8;
 
 use super::bsdf::Surface;
+use crate::bvh::END_CLEARANCE;
 use crate::lanes::{LANES, Vec3x8};
 use crate::ray::{gamma, offset_by, offset_by_x8};
 use crate::sampling::warp;
@@ -51,6 +52,8 @@ pub enum LightSource {
         /// Largest distance along an axis from any point of the light to its
         /// corners.
         extent: f32,
+        /// Largest coordinate magnitude in the scene (see [`connect_x8`]).
+        scene_extent: f32,
     },
     Hemisphere {
         radiance: Vec3,
@@ -69,6 +72,8 @@ pub enum LightSource {
         /// Cumulative area, normalised to end at 1.
         cdf: Vec<f32>,
         total_area: f32,
+        /// Largest coordinate magnitude in the scene (see [`connect_x8`]).
+        scene_extent: f32,
     },
 }
 
@@ -114,6 +119,7 @@ impl LightSource {
                 radiance,
                 cdf,
                 total_area,
+                scene_extent,
             } => {
                 let i = cdf.partition_point(|&c| c <= w).min(triangles.len() - 1);
                 let [a, b, c] = triangles[i];
@@ -134,7 +140,7 @@ impl LightSource {
                         f32x8::splat(extent.max_element()),
                     ),
                     x8(facing),
-                    *total_area,
+                    (*total_area, *scene_extent),
                     x8(radiance[i]),
                 )
                 .lane(0)
@@ -198,6 +204,7 @@ impl LightSource {
                 area,
                 q_err,
                 extent,
+                scene_extent,
             } => {
                 let half = f32x8::splat(0.5);
                 let q = x8(*center) + x8(*dim_x) * (u - half) + x8(*dim_y) * (v - half);
@@ -206,7 +213,7 @@ impl LightSource {
                     (p, origin, n),
                     (q, f32x8::splat(*q_err), f32x8::splat(*extent)),
                     x8(*normal),
-                    *area,
+                    (*area, *scene_extent),
                     x8(*radiance),
                 )
             }
@@ -350,12 +357,24 @@ fn sample_sphere(
 /// division serve both cosines and the pdf. The shadow ray runs from
 /// `origin` to just in front of `q`, which lies within `q_err` of the
 /// emitter's triangles, all of whose vertices are within `extent` of `q`.
+///
+/// It ends short of the emitter's plane by more than those rounding
+/// errors: by the BVH's [`END_CLEARANCE`] of the coordinates involved
+/// (the ray's reach, its origin and `scene_extent`), so that the emitter's
+/// own box — flat for a rectangle light, and lying in the plane the ray
+/// ends at — is culled by the traversal rather than entered and its
+/// triangles tested, for every shadow ray. That clearance grows with the
+/// coordinates, not with the ray, so it is capped at [`MAX_CLEARANCE`] of
+/// the ray's reach (pbrt's shadow epsilon): far from the origin, where the
+/// float grid is coarse, the cap applies and the emitter's box is entered
+/// as before. An occluder closer to the emitter than the clearance casts
+/// no shadow.
 #[inline(always)]
 fn connect_x8(
     (p, origin, n): (Vec3x8, Vec3x8, Vec3x8),
     (q, q_err, extent): (Vec3x8, f32x8, f32x8),
     n_light: Vec3x8,
-    area: f32,
+    (area, scene_extent): (f32, f32),
     radiance: Vec3x8,
 ) -> LightSamples {
     let d = q - p;
@@ -368,7 +387,14 @@ fn connect_x8(
     // beyond q's own error, and beyond the rounding of the ray/triangle
     // test from `origin`, ~γ₈ times the distance to the emitter's far corner.
     let reach = (q - origin).abs().max_element() + extent;
-    let end = offset_by_x8(q, n_light, q_err + f32x8::splat(gamma(8)) * reach);
+    let clearance = (f32x8::splat(END_CLEARANCE)
+        * (reach + origin.abs().max_element() + f32x8::splat(scene_extent)))
+    .fast_min(f32x8::splat(MAX_CLEARANCE) * reach);
+    let end = offset_by_x8(
+        q,
+        n_light,
+        q_err + f32x8::splat(gamma(8)) * reach + clearance,
+    );
     LightSamples {
         direction: end - origin,
         t_max: f32x8::ONE,
@@ -377,6 +403,10 @@ fn connect_x8(
         valid: valid.to_bitmask(),
     }
 }
+
+/// Largest shortening of a shadow ray for [`END_CLEARANCE`], relative to
+/// its reach.
+const MAX_CLEARANCE: f32 = 1e-4;
 
 /// Every light source of a scene.
 #[derive(Clone, Debug, Default)]
@@ -389,6 +419,12 @@ pub struct LightSet {
 impl LightSet {
     pub fn new(scene: &Scene, surfaces: &[Surface]) -> LightSet {
         let mut set = LightSet::default();
+        let bounds = scene.geometry.bounds();
+        let scene_extent = if bounds.is_empty() {
+            0.0
+        } else {
+            bounds.min.abs().max(bounds.max.abs()).max_element()
+        };
         for light in &scene.lights {
             set.sources.push(match *light {
                 Light::Point {
@@ -417,6 +453,7 @@ impl LightSet {
                     q_err: gamma(5)
                         * (center.abs() + 0.5 * dim_x.abs() + 0.5 * dim_y.abs()).max_element(),
                     extent: (dim_x.abs() + dim_y.abs()).max_element(),
+                    scene_extent,
                 },
                 Light::Hemisphere { radiance } => {
                     set.sky += radiance;
@@ -462,6 +499,7 @@ impl LightSet {
                 radiance,
                 cdf: cdf.iter().map(|&c| (c / total) as f32).collect(),
                 total_area: total as f32,
+                scene_extent,
             });
         }
         set
@@ -519,6 +557,7 @@ mod tests {
                 area,
                 q_err,
                 extent,
+                scene_extent,
             } => {
                 let q = *center + (u - 0.5) * *dim_x + (v - 0.5) * *dim_y;
                 let d = q - p;
@@ -530,7 +569,10 @@ mod tests {
                     return None;
                 }
                 let reach = (q - origin).abs().max_element() + extent;
-                let end = offset_by(q, *normal, q_err + gamma(8) * reach);
+                let clearance = (END_CLEARANCE
+                    * (reach + origin.abs().max_element() + scene_extent))
+                    .min(MAX_CLEARANCE * reach);
+                let end = offset_by(q, *normal, q_err + gamma(8) * reach + clearance);
                 Some(LightSample {
                     direction: end - origin,
                     t_max: 1.0,
@@ -577,6 +619,7 @@ mod tests {
                 area: 0.125,
                 q_err: gamma(5) * 2.5,
                 extent: 0.5,
+                scene_extent: 3.0,
             },
             LightSource::Hemisphere {
                 radiance: Vec3::new(0.5, 0.7, 1.0),
@@ -624,6 +667,78 @@ mod tests {
                 0 < valid && valid < 8,
                 "{light:?}: {valid} of 8 lanes valid"
             );
+        }
+    }
+
+    /// Shadow rays toward a rectangle light end far enough before it that
+    /// the BVH culls the box of the light's own (flat) triangles instead
+    /// of testing them — and they still reach everything in front of it.
+    #[test]
+    fn shadow_rays_clear_the_emitter_box() {
+        use crate::bvh::{Accel, Bvh, TraversalStats};
+        use crate::ray::{Rays, offset_by};
+        // A room's floor (y = 0) and ceiling light (y = 1.49, facing
+        // down), plus a small mesh in a corner, away from the rays.
+        let (center, dim_x, dim_y) = (
+            Vec3::new(0.0, 1.49, 0.0),
+            Vec3::new(0.8, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.6),
+        );
+        let corner = |a: f32, b: f32| center + a * dim_x + b * dim_y;
+        let mut positions = vec![
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(-1.0, 0.0, 1.0),
+            corner(-0.5, -0.5),
+            corner(0.5, -0.5),
+            corner(0.5, 0.5),
+            corner(-0.5, 0.5),
+        ];
+        let mut indices = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]];
+        for k in 0..20u32 {
+            let o = Vec3::new(0.9, 0.05 + 0.01 * k as f32, 0.9);
+            let i = positions.len() as u32;
+            positions.extend([o, o + Vec3::X * 0.02, o + Vec3::Z * 0.02]);
+            indices.push([i, i + 1, i + 2]);
+        }
+        let bvh = Bvh::from_triangle_soup(&positions, &indices, Accel::Sah);
+        let light = LightSource::Rectangle {
+            center,
+            normal: Vec3::NEG_Y,
+            dim_x,
+            dim_y,
+            radiance: Vec3::ONE,
+            area: 0.48,
+            q_err: gamma(5) * 1.9,
+            extent: 1.4,
+            scene_extent: 1.49,
+        };
+        let mut rays = Rays::default();
+        for i in 0..64 {
+            let p = Vec3::new((i % 8) as f32 * 0.2 - 0.7, 0.0, (i / 8) as f32 * 0.2 - 0.7);
+            let origin = offset_by(p, Vec3::Y, 1e-6);
+            let (u, v) = (((i % 7) as f32 + 0.5) / 7.0, ((i % 5) as f32 + 0.5) / 5.0);
+            let s = light.sample(p, origin, Vec3::Y, u, v, 0.0).unwrap();
+            rays.push(origin, s.direction, s.t_max);
+            // The same ray carried on to the light's plane hits the light.
+            rays.push(origin, s.direction, 1.001);
+        }
+        let mut occluded = Vec::new();
+        let mut stats = TraversalStats::default();
+        let shadow: Rays = {
+            let mut r = Rays::default();
+            for i in (0..rays.len()).step_by(2) {
+                r.push(rays.origin(i), rays.direction(i), rays.t_max[i]);
+            }
+            r
+        };
+        bvh.occluded(&shadow, &mut occluded, &mut stats);
+        assert!(occluded.iter().all(|&o| !o), "a shadow ray hit the light");
+        assert_eq!(stats.primitives_tested, 0, "shadow rays tested triangles");
+        bvh.occluded(&rays, &mut occluded, &mut stats);
+        for i in (1..rays.len()).step_by(2) {
+            assert!(occluded[i], "ray {i} carried on misses the light");
         }
     }
 }
