@@ -55,8 +55,6 @@ pub(crate) struct Bundle<'c> {
     cull: &'c Cull,
     org: [Vec3; WIDTH],
     dir: [Vec3; WIDTH],
-    /// Triangle-test setup per lane.
-    tri: [RayTri; WIDTH],
 }
 
 impl<'c> Bundle<'c> {
@@ -71,19 +69,18 @@ impl<'c> Bundle<'c> {
         };
         let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
         let d = [load(rays.dir[0]), load(rays.dir[1]), load(rays.dir[2])];
-        let org: [Vec3; WIDTH] = std::array::from_fn(|i| lane(o, i));
-        let dir = std::array::from_fn(|i| lane(d, i));
-        // A plain loop: `array::from_fn` here was left as a call.
-        let mut tri = [cull.ray_tri(0, org[0]); WIDTH];
-        for (lane, t) in tri.iter_mut().enumerate().skip(1) {
-            *t = cull.ray_tri(lane, org[lane]);
-        }
         Bundle {
             cull,
-            org,
-            dir,
-            tri,
+            org: std::array::from_fn(|i| lane(o, i)),
+            dir: std::array::from_fn(|i| lane(d, i)),
         }
+    }
+
+    /// Triangle-test setup of the ray in `lane`, made when the ray reaches
+    /// a leaf: most shadow rays in a room never do.
+    #[inline(always)]
+    fn ray_tri(&self, lane: usize) -> RayTri {
+        self.cull.ray_tri(lane, self.org[lane])
     }
 
     /// Slab-test constants of the ray in `lane`.
@@ -160,7 +157,7 @@ pub(crate) fn any(
         } else {
             for i in each(rays) {
                 let ray = (bundle.org[i], bundle.dir[i], t_max[i]);
-                if scene.leaf_occludes(child, ray, &bundle.tri[i], &mut work[i]) {
+                if scene.leaf_occludes(child, ray, &bundle.ray_tri(i), &mut work[i]) {
                     open &= !(1 << i);
                 }
             }

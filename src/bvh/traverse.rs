@@ -200,7 +200,7 @@ impl Cull {
 /// skip the per-ray setup. It uses the same arithmetic as the per-ray test
 /// on a box that contains all children of the root, so it never rejects a
 /// ray the traversal would accept (IEEE operations are monotone).
-#[inline]
+#[inline(always)]
 pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start: usize) -> Cull {
     let end = (start + WIDTH).min(rays.t_max.len());
     let load = |v: &[f32]| crate::lanes::load(&v[..end], start);
