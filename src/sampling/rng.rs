@@ -680,7 +680,7 @@ mod tests {
     #[test]
     fn batched_streams_are_the_scalar_ones() {
         for seed in [0, 7, u32::MAX] {
-            let pixels: [u32; 8] = std::array::from_fn(|l| l as u32 * 1001 + seed);
+            let pixels: [u32; 8] = std::array::from_fn(|l| (l as u32 * 1001).wrapping_add(seed));
             let samples: [u32; 8] = std::array::from_fn(|l| (l as u32).wrapping_mul(0x9e37_79b9));
             let streams = new_streams(seed, pixels, samples);
             for l in 0..8 {
