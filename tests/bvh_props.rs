@@ -170,11 +170,11 @@ fn rays_strategy(n: usize, extent: f32) -> impl Strategy<Value = Rays> {
     })
 }
 
-/// Bundles of 8 rays from one origin in a narrow cone, as the samples of
-/// a pixel or the shadow rays of one path vertex are: most bundles lie in
+/// Groups of 8 rays from one origin in a narrow cone, as the samples of
+/// a pixel or the shadow rays of one path vertex are: most groups lie in
 /// one octant and are traced as packets (closest hit); any-hit queries
 /// trace every slot of two or more rays as a bundle.
-fn coherent_rays_strategy(bundles: usize, extent: f32) -> impl Strategy<Value = Rays> {
+fn coherent_rays_strategy(groups: usize, extent: f32) -> impl Strategy<Value = Rays> {
     proptest::collection::vec(
         (
             vec3(-extent..extent),
@@ -187,7 +187,7 @@ fn coherent_rays_strategy(bundles: usize, extent: f32) -> impl Strategy<Value = 
                 8,
             ),
         ),
-        bundles,
+        groups,
     )
     .prop_map(|v| {
         let mut rays = Rays::with_capacity(8 * v.len());
@@ -215,12 +215,14 @@ proptest! {
 
     /// A room (floor, ceiling, four walls: the large flat pieces the SAH
     /// build gives root slots of their own) around a random soup, with
-    /// rays from inside and outside it, coherent and not.
+    /// rays from inside and outside it, coherent and not. (The walls are
+    /// "large" for `build::LARGE_AREA` = 2%; the unit tests in `build.rs`
+    /// check that they are set apart.)
     #[test]
     fn room_around_a_soup(
         tris in proptest::collection::vec((vec3(-0.5..0.5), vec3(-0.1..0.1), vec3(-0.1..0.1)), 1..200),
         rays in rays_strategy(256, 1.2),
-        bundles in coherent_rays_strategy(16, 1.2),
+        coherent in coherent_rays_strategy(16, 1.2),
     ) {
         let mut all = tris;
         let corners = |x: [f32; 2], y: [f32; 2], z: [f32; 2], along_x: bool| {
@@ -239,7 +241,7 @@ proptest! {
         all.extend(corners([-1.0, 1.0], [-1.0, 1.0], [1.0, 1.0], true));
         let g = soup(all, Vec::new());
         compare(&g, &rays).map_err(TestCaseError::fail)?;
-        compare(&g, &bundles).map_err(TestCaseError::fail)?;
+        compare(&g, &coherent).map_err(TestCaseError::fail)?;
     }
 
     #[test]

@@ -62,6 +62,15 @@ struct Bounds {
     max: Vec3A,
 }
 
+impl From<&Aabb> for Bounds {
+    fn from(b: &Aabb) -> Bounds {
+        Bounds {
+            min: b.min.into(),
+            max: b.max.into(),
+        }
+    }
+}
+
 impl Bounds {
     const EMPTY: Bounds = Bounds {
         min: Vec3A::splat(f32::INFINITY),
@@ -118,6 +127,10 @@ pub(crate) enum BuildNode {
         /// Primitives below this node.
         count: u32,
         children: Box<[BuildNode; 2]>,
+        /// Made by joining the parts `isolate_large` set apart: collapsing
+        /// into wide nodes opens these first, so each part gets a slot of
+        /// the root.
+        joins_parts: bool,
     },
 }
 
@@ -158,13 +171,7 @@ pub(crate) fn build(
     if bounds.is_empty() {
         return (None, order);
     }
-    let bounds: Vec<Bounds> = bounds
-        .par_iter()
-        .map(|b| Bounds {
-            min: b.min.into(),
-            max: b.max.into(),
-        })
-        .collect();
+    let bounds: Vec<Bounds> = bounds.par_iter().map(Bounds::from).collect();
     let centroids: Vec<Vec3A> = bounds.par_iter().map(|b| (b.min + b.max) * 0.5).collect();
     let ctx = Ctx {
         bounds: &bounds,
@@ -180,15 +187,18 @@ pub(crate) fn build(
 }
 
 /// Builds each of `parts` (consecutive ranges of `order`, by length) as its
-/// own subtree and joins them in a balanced binary tree (which the wide
-/// layout collapses into the root's slots).
+/// own subtree and joins them in a balanced binary tree, whose nodes the
+/// wide layout opens first (`joins_parts`), so each part gets a slot of
+/// the root.
 fn build_parts(ctx: &Ctx, order: &mut [u32], parts: &[usize]) -> BuildNode {
     let mut nodes = Vec::with_capacity(parts.len());
     let mut rest = order;
     let mut offset = 0;
+    // The joins sit above every part: count them as depth.
+    let depth = parts.len().next_power_of_two().trailing_zeros() as usize;
     for &len in parts {
         let (part, tail) = rest.split_at_mut(len);
-        nodes.push(build_node(ctx, part, offset, 0, None));
+        nodes.push(build_node(ctx, part, offset, depth, None));
         offset += len;
         rest = tail;
     }
@@ -205,6 +215,7 @@ fn join(mut nodes: Vec<BuildNode>) -> BuildNode {
         bounds: left.bounds().union(right.bounds()),
         count: left.count() + right.count(),
         children: Box::new([left, right]),
+        joins_parts: true,
     }
 }
 
@@ -212,12 +223,14 @@ fn join(mut nodes: Vec<BuildNode>) -> BuildNode {
 /// the scene box's.
 const LARGE_AREA: f32 = 0.02;
 
-/// Large triangles form one flat piece while their boxes' union has at
-/// most this fraction of the scene box's volume.
+/// A box is flat if its volume is at most this fraction of the scene box's.
+/// Large triangles with flat boxes (in an axis plane, or nearly) are
+/// clustered into flat pieces while their union stays flat.
 const FLAT_VOLUME: f32 = 1e-3;
 
 /// Finds the scene's large flat pieces — the walls, floor and ceiling of a
-/// room — and, if they and the rest fit in `ctx.params.top_slots` subtrees,
+/// room: large triangles with flat boxes, clustered while their union stays
+/// flat — and, if they and the rest fit in `ctx.params.top_slots` subtrees,
 /// reorders `order` as [piece 1, piece 2, …, the rest] and returns the
 /// lengths of those ranges.
 ///
@@ -229,17 +242,27 @@ const FLAT_VOLUME: f32 = 1e-3;
 /// a ceiling light never do. The binned SAH keeps the walls together
 /// because no single split helps: any two perpendicular walls already span
 /// the room. Giving each flat piece its own subtree, and so its own slot
-/// of the root, is that missing look-ahead. Scenes without large triangles
-/// (most meshes) are built exactly as before.
+/// of the root, is that missing look-ahead. A large triangle whose box is
+/// not flat (a slanted wall) stays with the rest: its box is entered from
+/// inside as the room's is. Scenes without large flat triangles (most
+/// meshes) are built exactly as before.
 fn isolate_large(ctx: &Ctx, order: &mut [u32]) -> Option<Vec<usize>> {
     let slots = ctx.params.top_slots;
     if slots < 2 {
         return None;
     }
-    let scene = ctx.bounds.iter().fold(Bounds::EMPTY, |a, b| a.union(*b));
+    let scene = ctx
+        .bounds
+        .par_iter()
+        .copied()
+        .reduce(|| Bounds::EMPTY, Bounds::union);
     let (area, volume) = (scene.half_area(), scene.volume());
     let large: Vec<u32> = (0..ctx.triangle_count)
-        .filter(|&id| ctx.bounds[id as usize].half_area() > LARGE_AREA * area)
+        .into_par_iter()
+        .filter(|&id| {
+            let b = ctx.bounds[id as usize];
+            b.half_area() > LARGE_AREA * area && b.volume() <= FLAT_VOLUME * volume
+        })
         .collect();
     // The rest must not be empty, and a room's worth of large triangles
     // is a few dozen: clustering is cubic in their number.
@@ -361,6 +384,7 @@ fn build_node(
         bounds: bounds.aabb(),
         count: n as u32,
         children: Box::new([l, r]),
+        joins_parts: false,
     }
 }
 
@@ -584,6 +608,7 @@ fn make_leaf(ctx: &Ctx, prims: &mut [u32], offset: usize, bounds: Bounds) -> Bui
         bounds: bounds.aabb(),
         count: prims.len() as u32,
         children: Box::new([l, r]),
+        joins_parts: false,
     }
 }
 
@@ -651,7 +676,7 @@ mod tests {
     }
 
     /// A room: floor, ceiling and three walls, two triangles each (ids
-    /// 0..10, in that order), around 200 small triangles (a mesh inside).
+    /// 0..10, in that order), and 200 small triangles (a mesh inside).
     fn room() -> Vec<Aabb> {
         let wall = |min: [f32; 3], max: [f32; 3]| Aabb {
             min: Vec3::from(min),
@@ -718,10 +743,64 @@ mod tests {
     }
 
     #[test]
+    fn isolation_with_spheres_and_slanted_triangles() {
+        // Spheres (ids after the triangles) stay in the rest; a large
+        // slanted triangle (its box is not flat) too; every primitive is
+        // still in exactly one leaf; the walls still get leaves of their own.
+        let mut bounds = room();
+        bounds.push(Aabb {
+            min: Vec3::new(-0.9, 0.1, -0.9),
+            max: Vec3::new(0.9, 1.4, 0.9),
+        });
+        let triangles = bounds.len() as u32;
+        for k in 0..5 {
+            let c = Vec3::new(0.1 * k as f32, 0.5, -0.2);
+            bounds.push(Aabb {
+                min: c - Vec3::splat(0.05),
+                max: c + Vec3::splat(0.05),
+            });
+        }
+        let (root, order) = build(&bounds, triangles, sah(8));
+        let mut seen = Vec::new();
+        count_leaves(root.as_ref().unwrap(), &order, &mut seen);
+        seen.sort();
+        assert_eq!(seen, (0..bounds.len() as u32).collect::<Vec<u32>>());
+        let mut found = Vec::new();
+        leaves(&root.unwrap(), &order, &mut found);
+        for wall in 0..5u32 {
+            assert!(
+                found.iter().any(|(_, l)| {
+                    let mut l = l.clone();
+                    l.sort();
+                    l == vec![2 * wall, 2 * wall + 1]
+                }),
+                "wall {wall} shares a leaf"
+            );
+        }
+        // The parts: the five walls, then everything else.
+        let bounds: Vec<Bounds> = bounds.iter().map(Bounds::from).collect();
+        let ctx = Ctx {
+            bounds: &bounds,
+            centroids: &[],
+            triangle_count: triangles,
+            params: sah(8),
+        };
+        let mut order: Vec<u32> = (0..bounds.len() as u32).collect();
+        let parts = isolate_large(&ctx, &mut order).unwrap();
+        assert_eq!(parts, [2, 2, 2, 2, 2, bounds.len() - 10]);
+        let mut pieces = order[..10].to_vec();
+        pieces.sort();
+        assert_eq!(pieces, (0..10).collect::<Vec<u32>>());
+    }
+
+    #[test]
     fn isolation_keeps_to_the_root_slots() {
-        // Five walls and the rest do not fit in five slots: the build is
-        // the plain SAH one.
+        // Five walls and the rest fit in six slots exactly...
         let bounds = room();
+        let (_, order) = build(&bounds, bounds.len() as u32, sah(6));
+        let (_, plain_order) = build(&bounds, bounds.len() as u32, sah(0));
+        assert_ne!(order, plain_order);
+        // ...but not in five: the build is the plain SAH one.
         let (root, order) = build(&bounds, bounds.len() as u32, sah(5));
         let (plain, plain_order) = build(&bounds, bounds.len() as u32, sah(0));
         assert_eq!(order, plain_order);

@@ -19,13 +19,14 @@
 //! the answer — occluded or not — is the same. Nothing need be common to
 //! the rays: no octant, origin or light. What a bundle saves grows with
 //! how many nodes its rays share: the `-l` shadow rays of one path vertex
-//! share all of them, neighbouring vertices' rays toward one light most of
-//! the top of the tree.
+//! share most of the top of the tree, as do neighbouring vertices' rays
+//! toward one light.
 //!
 //! The same layout for closest-hit rays (children ordered by the nearest
 //! entry among the rays, entries dropped for a ray beyond its hit) was
-//! measured and not kept: 5% slower renders on CBbunny, whose continuation
-//! rays share little (PERF.md).
+//! measured and not kept: 5–10% slower CBbunny renders, as a child entered
+//! by several rays is ordered by the nearest of them, so a ray may test a
+//! far leaf before the near node whose hit would have culled it (PERF.md).
 
 use glam::Vec3;
 
@@ -76,8 +77,9 @@ impl<'c> Bundle<'c> {
         }
     }
 
-    /// Triangle-test setup of the ray in `lane`, made when the ray reaches
-    /// a leaf: most shadow rays in a room never do.
+    /// Triangle-test setup of the ray in `lane`, made at each leaf the ray
+    /// reaches (a few operations) rather than for every ray up front: most
+    /// shadow rays in a room never reach one.
     #[inline(always)]
     fn ray_tri(&self, lane: usize) -> RayTri {
         self.cull.ray_tri(lane, self.org[lane])
@@ -112,7 +114,7 @@ impl<'c> Bundle<'c> {
 /// Pushes the children of `node` in `slots` except the first, which it
 /// returns: any-hit order, no sorting.
 #[inline(always)]
-fn push_unordered(
+fn push_entered(
     node: &WideNode,
     slots: u32,
     rays: &[u32; WIDTH],
@@ -140,6 +142,8 @@ pub(crate) fn any(
     work: &mut [Work; WIDTH],
     visits: &mut u64,
 ) -> u32 {
+    // Only rays the batch cull let through may be traced (see `never_hits`).
+    debug_assert!(active & !bundle.cull.mask == 0);
     // Rays still looking for an occluder.
     let mut open = active;
     stack.clear();
@@ -151,7 +155,7 @@ pub(crate) fn any(
             *visits += u64::from(rays.count_ones());
             let (slots, entered) = bundle.test(node, rays, t_max);
             if slots != 0 {
-                current = push_unordered(node, slots, &entered, stack);
+                current = push_entered(node, slots, &entered, stack);
                 continue;
             }
         } else {

@@ -159,16 +159,18 @@ fn collapse_children(node: &BuildNode) -> Vec<&BuildNode> {
         unreachable!("collapse_children on a leaf")
     };
     let mut slots: Vec<&BuildNode> = vec![&children[0], &children[1]];
+    // Joins of the build's isolated parts first (each part gets a slot),
+    // then by area.
+    let key = |n: &BuildNode| match n {
+        BuildNode::Inner { joins_parts, .. } => Some((*joins_parts, n.bounds().surface_area())),
+        BuildNode::Leaf { .. } => None,
+    };
     while slots.len() < WIDTH {
         let best = slots
             .iter()
             .enumerate()
-            .filter(|(_, n)| matches!(n, BuildNode::Inner { .. }))
-            .max_by(|a, b| {
-                a.1.bounds()
-                    .surface_area()
-                    .total_cmp(&b.1.bounds().surface_area())
-            });
+            .filter_map(|(i, n)| key(n).map(|k| (i, k)))
+            .max_by(|a, b| a.1.0.cmp(&b.1.0).then(a.1.1.total_cmp(&b.1.1)));
         let Some((i, _)) = best else { break };
         let BuildNode::Inner { children, .. } = slots.swap_remove(i) else {
             unreachable!()

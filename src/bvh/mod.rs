@@ -18,14 +18,15 @@
 //!   owns this copy and never looks at the `Geometry` again.
 //! * [`traverse`](self::traverse): the batch is first culled [`WIDTH`]
 //!   rays at a time against the scene bounds, then each surviving ray walks
-//!   the tree nearest child first with a conservative (Ize 2013) slab test.
+//!   the tree with a conservative (Ize 2013) slab test: nearest child first
+//!   for closest hits, in slot order for any hits.
 //! * [`packet`](self::packet): closest hit — when those [`WIDTH`] rays all
 //!   point into one octant (the samples of a pixel) they walk the tree
 //!   together instead, one lane per ray, with the same answers bit for bit.
 //! * [`bundle`](self::bundle): any hit — two or more rays of a slot walk
 //!   the tree together, each tested alone at every node it enters, sharing
-//!   the walk's control (the shadow rays of one path vertex share all of
-//!   it).
+//!   the walk's control (the shadow rays of one path vertex share most of
+//!   the top of the tree).
 //! * [`triangle`](self::triangle): watertight ray/triangle test (Woop,
 //!   Benthin, Wald 2013), [`TRI_WIDTH`] triangles per SIMD test.
 //! * [`sphere`](self::sphere): numerically stable ray/sphere test; spheres
@@ -68,15 +69,20 @@ use flatten::{ChildRef, WideNode};
 use sphere::PackedSphere;
 use triangle::TriGroup;
 
-/// How far before a surface a ray must end, as a multiple of the
-/// coordinate magnitudes involved (the ray's length and origin and the
-/// scene's extent, each as its largest component), for the traversal to
-/// cull the box of that surface rather than enter it, when the box lies in
-/// the plane the ray ends at (a flat emitter): the box cull widens a ray's
-/// end by `SLACK_ULPS` of those magnitudes, up to √3 apart between a
-/// component and the length, and this doubles the bound for the rounding
-/// of the test itself.
-pub const END_CLEARANCE: f32 = 4.0 * traverse::SLACK_ULPS;
+/// How far before a flat box lying across its end a ray must stop, as a
+/// multiple of the magnitudes involved, for the traversal to cull that box
+/// rather than enter it (a shadow ray ending at a flat emitter).
+///
+/// A ray `o + t·d`, `t ∈ [0, 1]`, is culled from boxes entered beyond
+/// `1 + S + S·(E + |o|∞)/|d|∞` (S = `SLACK_ULPS`, E the scene's largest
+/// coordinate magnitude; see `traverse::SLACK_ULPS`). A box in a plane
+/// that the ray reaches a distance δ beyond its end (δ measured along the
+/// ray, which is at least δ along any axis) is entered at
+/// `1 + δ/|d| ≥ 1 + δ/(√3·|d|∞)`. So δ ≥ √3·S·(|d|∞ + E + |o|∞) culls it,
+/// and twice S·(reach + E + |o|∞) with reach ≥ |d|∞ covers the √3; the
+/// other factor of two is the margin for the rounding of the slab test
+/// and of `t` itself.
+pub(crate) const END_CLEARANCE: f32 = 4.0 * traverse::SLACK_ULPS;
 
 /// SIMD register type of the node and triangle tests.
 pub(crate) type Lanes = wide::f32x8;
@@ -331,7 +337,7 @@ impl Bvh {
                         hits.v[i] = c.v;
                     }
                 }
-                nodes += packet_nodes(visits, candidates, end - start);
+                nodes += slot_nodes(visits, candidates, end - start);
                 prims += work.iter().map(|w| w.prims as u64).sum::<u64>();
                 continue;
             }
@@ -416,7 +422,7 @@ impl Bvh {
                 for (lane, o) in occluded[start..end].iter_mut().enumerate() {
                     *o = hit & (1 << lane) != 0;
                 }
-                nodes += packet_nodes(visits, candidates, end - start);
+                nodes += slot_nodes(visits, candidates, end - start);
                 prims += work.iter().map(|w| w.prims as u64).sum::<u64>();
                 continue;
             }
@@ -524,11 +530,11 @@ impl Bvh {
     }
 }
 
-/// Node visits of one packet's batch slot of `lanes` rays, counted as the
-/// single-ray path counts them: the packet's visits (summed over its
-/// rays), plus one (the scene box) per ray the batch cull rejected; rays
+/// Node visits of one packet's or bundle's batch slot of `lanes` rays,
+/// counted as the single-ray path counts them: the visits summed over its
+/// rays, plus one (the scene box) per ray the batch cull rejected; rays
 /// that passed the cull but cannot hit anything count none.
-fn packet_nodes(visits: u64, candidates: u32, lanes: usize) -> u64 {
+fn slot_nodes(visits: u64, candidates: u32, lanes: usize) -> u64 {
     let in_slot = (1u32 << lanes) - 1;
     visits + u64::from((!candidates & in_slot).count_ones())
 }
@@ -546,3 +552,63 @@ const _: () = {
     const fn assert_send_sync<T: Send + Sync>() {}
     assert_send_sync::<Bvh>();
 };
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The flat pieces the build sets apart end up as children of the
+    /// root wide node, one slot each, even when the rest of the scene has
+    /// the biggest box (collapsing by area alone would open the rest first
+    /// and leave two pieces sharing a slot).
+    #[test]
+    fn flat_pieces_are_root_slots() {
+        let mut positions = Vec::new();
+        let mut indices = Vec::new();
+        let mut quad = |a: Vec3, b: Vec3, c: Vec3| {
+            let i = positions.len() as u32;
+            positions.extend([a, b, c, a + c - b]);
+            indices.extend([[i, i + 1, i + 2], [i, i + 2, i + 3]]);
+        };
+        // A floor and two walls, then a scattered mesh reaching past them.
+        let (x0, x1, y0, y1, z0, z1) = (-1.0, 1.0, 0.0, 1.5, -1.0, 1.0);
+        quad(
+            Vec3::new(x0, y0, z0),
+            Vec3::new(x1, y0, z0),
+            Vec3::new(x1, y0, z1),
+        );
+        quad(
+            Vec3::new(x0, y0, z0),
+            Vec3::new(x0, y1, z0),
+            Vec3::new(x0, y1, z1),
+        );
+        quad(
+            Vec3::new(x0, y0, z0),
+            Vec3::new(x1, y0, z0),
+            Vec3::new(x1, y1, z0),
+        );
+        for k in 0..400 {
+            let (i, j) = ((k % 20) as f32, (k / 20) as f32);
+            let o = Vec3::new(i * 0.4 - 4.0, 0.2 + 0.05 * (i % 3.0), j * 0.4 - 4.0);
+            quad(o, o + Vec3::X * 0.02, o + Vec3::new(0.02, 0.02, 0.01));
+        }
+        let bvh = Bvh::from_triangle_soup(&positions, &indices, Accel::Sah);
+        let root = &bvh.nodes[bvh.root.unwrap().index()];
+        let mut walls = Vec::new();
+        for slot in 0..WIDTH {
+            let child = root.child[slot];
+            if !child.is_leaf() || root.bounds[0][0].as_array()[slot].is_infinite() {
+                continue;
+            }
+            let mut ids: Vec<u32> = bvh.tri_groups[child.index()..child.index() + child.count()]
+                .iter()
+                .flat_map(|g| g.id.into_iter().filter(|&id| id != crate::ray::NO_HIT))
+                .collect();
+            ids.sort();
+            walls.push(ids);
+        }
+        walls.sort();
+        let expected: Vec<Vec<u32>> = (0..3).map(|w| vec![2 * w, 2 * w + 1]).collect();
+        assert_eq!(walls, expected);
+    }
+}

@@ -5,8 +5,8 @@
 //! boxes at once; most of its cost per node is not that test but the
 //! control around it (sorting the children hit, the stack, the branches).
 //! Rays that travel together — the samples of one pixel — visit nearly the
-//! same nodes, so here that control is
-//! paid once per node for the whole packet: each child box is tested
+//! same nodes, so here that control is paid once per node for the whole
+//! packet: each child box is tested
 //! against all rays at once (lanes = rays), the children hit by any active
 //! ray are visited nearest first along the packet's leading ray, and each
 //! stack entry carries the mask of rays that entered it and their entry

@@ -361,9 +361,10 @@ fn sample_sphere(
 /// It ends short of the emitter's plane by more than those rounding
 /// errors: by the BVH's [`END_CLEARANCE`] of the coordinates involved
 /// (the ray's reach, its origin and `scene_extent`), so that the emitter's
-/// own box — flat for a rectangle light, and lying in the plane the ray
-/// ends at — is culled by the traversal rather than entered and its
-/// triangles tested, for every shadow ray. That clearance grows with the
+/// own box, when it is flat (an axis-aligned rectangle light, as in the
+/// Cornell boxes) and so lies in the plane the ray ends at, is culled by
+/// the traversal rather than entered and its triangles tested, for every
+/// shadow ray. That clearance grows with the
 /// coordinates, not with the ray, so it is capped at [`MAX_CLEARANCE`] of
 /// the ray's reach (pbrt's shadow epsilon): far from the origin, where the
 /// float grid is coarse, the cap applies and the emitter's box is entered
@@ -678,7 +679,9 @@ mod tests {
         use crate::bvh::{Accel, Bvh, TraversalStats};
         use crate::ray::{Rays, offset_by};
         // A room's floor (y = 0) and ceiling light (y = 1.49, facing
-        // down), plus a small mesh in a corner, away from the rays.
+        // down), plus a small mesh in a corner, away from the rays (without
+        // it nothing would be left beside the flat pieces, and the build
+        // would not set them apart).
         let (center, dim_x, dim_y) = (
             Vec3::new(0.0, 1.49, 0.0),
             Vec3::new(0.8, 0.0, 0.0),
@@ -702,6 +705,7 @@ mod tests {
             positions.extend([o, o + Vec3::X * 0.02, o + Vec3::Z * 0.02]);
             indices.push([i, i + 1, i + 2]);
         }
+
         let bvh = Bvh::from_triangle_soup(&positions, &indices, Accel::Sah);
         let light = LightSource::Rectangle {
             center,
@@ -710,8 +714,8 @@ mod tests {
             dim_y,
             radiance: Vec3::ONE,
             area: 0.48,
-            q_err: gamma(5) * 1.9,
-            extent: 1.4,
+            q_err: gamma(5) * (center.abs() + 0.5 * dim_x.abs() + 0.5 * dim_y.abs()).max_element(),
+            extent: (dim_x.abs() + dim_y.abs()).max_element(),
             scene_extent: 1.49,
         };
         let mut rays = Rays::default();
@@ -740,5 +744,25 @@ mod tests {
         for i in (1..rays.len()).step_by(2) {
             assert!(occluded[i], "ray {i} carried on misses the light");
         }
+        // A small occluder 1e-3 below the light's centre (a few times the
+        // cap on the clearance) still casts its shadow.
+        let k = positions.len() as u32;
+        positions.extend([
+            Vec3::new(-0.05, 1.489, -0.05),
+            Vec3::new(0.05, 1.489, -0.05),
+            Vec3::new(0.0, 1.489, 0.05),
+        ]);
+        indices.push([k, k + 1, k + 2]);
+        let bvh = Bvh::from_triangle_soup(&positions, &indices, Accel::Sah);
+        let p = Vec3::ZERO;
+        let origin = offset_by(p, Vec3::Y, 1e-6);
+        let s = light.sample(p, origin, Vec3::Y, 0.5, 0.5, 0.0).unwrap();
+        let mut ray = Rays::default();
+        ray.push(origin, s.direction, s.t_max);
+        bvh.occluded(&ray, &mut occluded, &mut stats);
+        assert!(
+            occluded[0],
+            "the occluder in front of the light casts no shadow"
+        );
     }
 }

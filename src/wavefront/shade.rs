@@ -315,8 +315,9 @@ fn sample_lanes(
 
 /// Pushes the chunk's shadow rays path by path, each path's in light and
 /// sample order: the rays of one vertex stay consecutive (they share an
-/// origin and light, so they walk the tree as one bundle), and each path
-/// adds up its light in the same order whatever the lane layout.
+/// origin, so they mostly fall in the same batch slots and walk the tree
+/// as bundles), and each path adds up its light in the same order whatever
+/// the lane layout.
 fn push_shadow_rays(
     start: usize,
     direct: u32,
