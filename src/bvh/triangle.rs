@@ -64,15 +64,16 @@ impl TriGroup {
         }
     }
 
-    /// Number of real (non-padding) triangles. Padding lanes come last, so
-    /// a full group (the common case) is known from its last lane.
+    /// Number of real (non-padding) triangles, without a branch (groups
+    /// full and partial alternate along a ray's path): padding ids are
+    /// [`NO_HIT`] = `u32::MAX`, the only ids with the top bit set (a scene
+    /// has far fewer than 2³¹ primitives), so the lanes' sign mask counts
+    /// them.
     #[inline]
     pub fn len(&self) -> u32 {
-        if self.id[TRI_WIDTH - 1] != NO_HIT {
-            TRI_WIDTH as u32
-        } else {
-            self.id.iter().take_while(|&&id| id != NO_HIT).count() as u32
-        }
+        const { assert!(TRI_WIDTH == 8 && NO_HIT == u32::MAX) };
+        let padding = wide::u32x8::from(self.id).to_bitmask();
+        TRI_WIDTH as u32 - padding.count_ones()
     }
 }
 
