@@ -54,8 +54,10 @@ pub struct SurfacePoints {
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
 pub struct TriangleRecord {
-    p: [Vec3; 3],
-    n: [Vec3; 3],
+    /// x, y, z of corners 0, 1, 2, then of corner normals 0, 1, 2: eight
+    /// records' first and second eight floats are one 8×8 transpose each
+    /// from the lanes the surface stage works in.
+    coords: [f32; 18],
     material: u32,
 }
 
@@ -71,9 +73,13 @@ impl TriangleRecords {
                     let [a, b, c] = tris.indices[t];
                     let normal =
                         |k: u32| tris.normals.get(k as usize).copied().unwrap_or(Vec3::ZERO);
+                    let (p, n) = (tris.vertices(t), [normal(a), normal(b), normal(c)]);
+                    let mut coords = [0.0; 18];
+                    for (k, v) in p.iter().chain(&n).enumerate() {
+                        coords[3 * k..3 * k + 3].copy_from_slice(&v.to_array());
+                    }
                     TriangleRecord {
-                        p: tris.vertices(t),
-                        n: [normal(a), normal(b), normal(c)],
+                        coords,
                         material: tris.material[t],
                     }
                 })
@@ -208,8 +214,37 @@ impl SurfacePoints {
         start: usize,
         end: usize,
     ) {
-        let corner = |k: usize| Vec3x8::from_fn(LANES, |lane| corners[lane].p[k]);
-        let normal = |k: usize| Vec3x8::from_fn(LANES, |lane| corners[lane].n[k]);
+        // Lane `l` of coordinate `k`: the records' floats, transposed.
+        let rows =
+            |first: usize| {
+                f32x8::transpose(corners.map(|r| {
+                    f32x8::from(<[f32; 8]>::try_from(&r.coords[first..first + 8]).unwrap())
+                }))
+            };
+        let (lo, hi) = (rows(0), rows(8));
+        let tail = |k: usize| f32x8::from(corners.map(|r| r.coords[k]));
+        let coord = [
+            lo[0],
+            lo[1],
+            lo[2],
+            lo[3],
+            lo[4],
+            lo[5],
+            lo[6],
+            lo[7],
+            hi[0],
+            hi[1],
+            hi[2],
+            hi[3],
+            hi[4],
+            hi[5],
+            hi[6],
+            hi[7],
+            tail(16),
+            tail(17),
+        ];
+        let corner = |k: usize| Vec3x8::new(coord[3 * k], coord[3 * k + 1], coord[3 * k + 2]);
+        let normal = |k: usize| corner(k + 3);
         let load = |v: &[f32]| lanes::load(&v[..end], start);
         let (a, b, c) = (corner(0), corner(1), corner(2));
         let o = Vec3x8::load(
