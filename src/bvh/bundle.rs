@@ -34,7 +34,7 @@ use super::flatten::{ChildRef, WideNode};
 use super::traverse::{Cull, Ray8Src, RayBox, Scene, Work};
 use super::triangle::RayTri;
 use super::{Lanes, WIDTH};
-use crate::lanes::{each, from_bits, to_bits};
+use crate::lanes::{Vec3x8, each, from_bits, to_bits};
 
 /// Stack entry: a child and the rays that entered it (a bit per lane).
 #[derive(Clone, Copy)]
@@ -63,17 +63,11 @@ impl<'c> Bundle<'c> {
     /// let through are the ones traced).
     #[inline(always)]
     pub fn new(rays: &Ray8Src, start: usize, cull: &'c Cull) -> Bundle<'c> {
-        let end = (start + WIDTH).min(rays.t_max.len());
-        let load = |v: &[f32]| crate::lanes::load(&v[..end], start);
-        let lane = |v: [Lanes; 3], i: usize| {
-            Vec3::new(v[0].as_array()[i], v[1].as_array()[i], v[2].as_array()[i])
-        };
-        let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
-        let d = [load(rays.dir[0]), load(rays.dir[1]), load(rays.dir[2])];
+        let (o, d) = rays.lanes(start);
         Bundle {
             cull,
-            org: std::array::from_fn(|i| lane(o, i)),
-            dir: std::array::from_fn(|i| lane(d, i)),
+            org: Vec3x8::new(o[0], o[1], o[2]).to_array(),
+            dir: Vec3x8::new(d[0], d[1], d[2]).to_array(),
         }
     }
 

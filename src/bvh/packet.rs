@@ -28,6 +28,7 @@ use super::flatten::{ChildRef, WideNode};
 use super::traverse::{Closest, Cull, Ray8Src, Scene, T_FAR_MARGIN, Work, slab_test};
 use super::triangle::RayTri;
 use super::{Lanes, WIDTH};
+use crate::lanes::Vec3x8;
 
 /// Stack entry: a child, the rays that entered it and where they did.
 #[derive(Clone, Copy)]
@@ -86,16 +87,10 @@ impl Packet {
                 return None;
             };
         }
-        let end = (start + WIDTH).min(rays.t_max.len());
-        let load = |v: &[f32]| crate::lanes::load(&v[..end], start);
-        let dir = [load(rays.dir[0]), load(rays.dir[1]), load(rays.dir[2])];
-        let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
+        let (o, d) = rays.lanes(start);
         let slack = cull.slack();
-        let lane = |v: &[Lanes; 3], i: usize| {
-            Vec3::new(v[0].as_array()[i], v[1].as_array()[i], v[2].as_array()[i])
-        };
-        let org = std::array::from_fn(|i| lane(&o, i));
-        let dir = std::array::from_fn(|i| lane(&dir, i));
+        let org = Vec3x8::new(o[0], o[1], o[2]).to_array();
+        let dir = Vec3x8::new(d[0], d[1], d[2]).to_array();
         // A plain loop: `array::from_fn` here was left as a call.
         let mut tri = [cull.ray_tri(0, org[0]); WIDTH];
         for (lane, t) in tri.iter_mut().enumerate().skip(1) {

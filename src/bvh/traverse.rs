@@ -203,10 +203,8 @@ impl Cull {
 #[inline(always)]
 pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start: usize) -> Cull {
     let end = (start + WIDTH).min(rays.t_max.len());
-    let load = |v: &[f32]| crate::lanes::load(&v[..end], start);
-    let o = [load(rays.org[0]), load(rays.org[1]), load(rays.org[2])];
-    let dir = [load(rays.dir[0]), load(rays.dir[1]), load(rays.dir[2])];
-    let t_max = load(rays.t_max);
+    let (o, dir) = rays.lanes(start);
+    let t_max = crate::lanes::load(rays.t_max, start);
     // `never_hits`, lane by lane: a finite value is below ∞ in magnitude
     // (NaN compares false), a usable direction has a component of normal
     // magnitude, and an interval is empty if t_max is NaN or negative.
@@ -253,6 +251,21 @@ pub(crate) struct Ray8Src<'a> {
     pub org: [&'a [f32]; 3],
     pub dir: [&'a [f32]; 3],
     pub t_max: &'a [f32],
+}
+
+impl Ray8Src<'_> {
+    /// Origins and directions of rays `start..start + WIDTH`, per axis
+    /// (zeros past the batch's end).
+    #[inline(always)]
+    pub fn lanes(&self, start: usize) -> ([Lanes; 3], [Lanes; 3]) {
+        let end = (start + WIDTH).min(self.t_max.len());
+        let load = |v: &[f32]| crate::lanes::load(&v[..end], start);
+        let (o, d) = (self.org, self.dir);
+        (
+            [load(o[0]), load(o[1]), load(o[2])],
+            [load(d[0]), load(d[1]), load(d[2])],
+        )
+    }
 }
 
 /// Rays that cannot hit anything: a direction that is zero or subnormal
