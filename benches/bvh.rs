@@ -7,6 +7,7 @@
 //! BVH_BENCH_SCENES=CBbunny,maxplanck cargo bench --bench bvh --features embree
 //! BVH_BENCH_SCALING=1 cargo bench --bench bvh -- scaling   # 1k..4M triangle sweep
 //! BVH_BENCH_QUICK=1 cargo bench --bench bvh --features embree  # plain table, see below
+//! BVH_BENCH_PROFILE=primary cargo bench --bench bvh   # one set, traced once, for a profiler
 //! ```
 //!
 //! `BVH_BENCH_QUICK=1` skips criterion and prints one table row per scene
@@ -101,6 +102,17 @@ fn load(name: &str, rel: &str) -> Option<Workload> {
 
 /// A sphere of `4·n²` triangles with a bumpy radius (so the BVH has real
 /// depth complexity), as a lat-long grid.
+/// Name of the [`bumpy_sphere`] of parameter `n` (4·n² triangles), known
+/// before building it.
+fn sphere_name(n: usize) -> String {
+    let n_tris = 4 * n * n;
+    if n_tris >= 1 << 20 {
+        format!("sphere{}M", n_tris >> 20)
+    } else {
+        format!("sphere{}k", n_tris >> 10)
+    }
+}
+
 fn bumpy_sphere(n: usize) -> Workload {
     let (rows, cols) = (n, 2 * n);
     let mut positions = Vec::with_capacity((rows + 1) * cols);
@@ -145,13 +157,8 @@ fn bumpy_sphere(n: usize) -> Workload {
         b.min,
         b.max,
     );
-    let name = if n_tris >= 1 << 20 {
-        format!("sphere{}M", n_tris >> 20)
-    } else {
-        format!("sphere{}k", n_tris >> 10)
-    };
     Workload {
-        name,
+        name: sphere_name(n),
         geometry,
         camera,
         light: None,
@@ -448,6 +455,50 @@ fn best_of(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
     (cpu, wall)
 }
 
+/// `BVH_BENCH_PROFILE=<set>`: traces only the named ray set (`primary`,
+/// `diffuse` or `shadow`) of each scene with wavepath, once (or
+/// `BVH_BENCH_REPEAT` times), on the calling thread (or, for `build`,
+/// only builds the BVH, on all threads): a run short and deterministic enough for callgrind's instruction
+/// counts (which, unlike times on this shared machine, can tell a 3%
+/// change apart) or `perf record`.
+fn profile(w: &Workload, kind: &str) {
+    let repeat: usize = std::env::var("BVH_BENCH_REPEAT")
+        .ok()
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(1);
+    if kind == "build" {
+        let t0 = std::time::Instant::now();
+        for _ in 0..repeat {
+            drop(Bvh::build(&w.geometry, Accel::Sah));
+        }
+        let ms = t0.elapsed().as_secs_f64() * 1e3 / repeat as f64;
+        println!("{} build: {ms:.2} ms", w.name);
+        return;
+    }
+    let bvh = Bvh::build(&w.geometry, Accel::Sah);
+    for set in ray_sets(w, &bvh).iter().filter(|s| s.kind == kind) {
+        let mut stats = TraversalStats::default();
+        let t0 = std::time::Instant::now();
+        for rays in std::iter::repeat_n(&set.batches, repeat).flatten() {
+            if set.shadow {
+                bvh.occluded(rays, &mut Vec::new(), &mut stats);
+            } else {
+                bvh.intersect(rays, &mut Hits::default(), &mut stats, None);
+            }
+        }
+        let secs = t0.elapsed().as_secs_f64();
+        println!(
+            "{} {}: {} rays, {:.2} nodes/ray, {:.2} primitives/ray, {:.1} Mrays/s",
+            w.name,
+            kind,
+            stats.rays,
+            stats.nodes_visited as f64 / stats.rays.max(1) as f64,
+            stats.primitives_tested as f64 / stats.rays.max(1) as f64,
+            stats.rays as f64 * 1e-6 / secs
+        );
+    }
+}
+
 /// `BVH_BENCH_QUICK=1`: a plain table instead of criterion. Single-thread
 /// rates use the tracing thread's CPU time (robust on a shared machine),
 /// all-thread rates wall time; best of 5.
@@ -518,7 +569,12 @@ fn quick(w: &Workload) {
 
 fn main() {
     let mut c = Criterion::default().configure_from_args();
-    if std::env::var_os("BVH_BENCH_QUICK").is_some() {
+    let profiled = std::env::var("BVH_BENCH_PROFILE").ok();
+    if std::env::var_os("BVH_BENCH_QUICK").is_some() || profiled.is_some() {
+        let run = |w: &Workload| match &profiled {
+            Some(kind) => profile(w, kind),
+            None => quick(w),
+        };
         for (name, rel) in [
             ("CBbunny", "sky/CBbunny.dae"),
             ("maxplanck", "meshedit/maxplanck.dae"),
@@ -527,13 +583,12 @@ fn main() {
             if wanted(name)
                 && let Some(w) = load(name, rel)
             {
-                quick(&w);
+                run(&w);
             }
         }
         for n in [16, 64, 256, 512, 1024] {
-            let w = bumpy_sphere(n);
-            if wanted(&w.name) {
-                quick(&w);
+            if wanted(&sphere_name(n)) {
+                run(&bumpy_sphere(n));
             }
         }
         return;
