@@ -100,8 +100,6 @@ fn load(name: &str, rel: &str) -> Option<Workload> {
     })
 }
 
-/// A sphere of `4·n²` triangles with a bumpy radius (so the BVH has real
-/// depth complexity), as a lat-long grid.
 /// Name of the [`bumpy_sphere`] of parameter `n` (4·n² triangles), known
 /// before building it.
 fn sphere_name(n: usize) -> String {
@@ -113,6 +111,8 @@ fn sphere_name(n: usize) -> String {
     }
 }
 
+/// A sphere of `4·n²` triangles with a bumpy radius (so the BVH has real
+/// depth complexity), as a lat-long grid.
 fn bumpy_sphere(n: usize) -> Workload {
     let (rows, cols) = (n, 2 * n);
     let mut positions = Vec::with_capacity((rows + 1) * cols);
@@ -458,9 +458,9 @@ fn best_of(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
 /// `BVH_BENCH_PROFILE=<set>`: traces only the named ray set (`primary`,
 /// `diffuse` or `shadow`) of each scene with wavepath, once (or
 /// `BVH_BENCH_REPEAT` times), on the calling thread (or, for `build`,
-/// only builds the BVH, on all threads): a run short and deterministic enough for callgrind's instruction
-/// counts (which, unlike times on this shared machine, can tell a 3%
-/// change apart) or `perf record`.
+/// only builds the BVH, on all threads): a run short and deterministic
+/// enough for callgrind's instruction counts (which, unlike times on this
+/// shared machine, can tell a 3% change apart) or `perf record`.
 fn profile(w: &Workload, kind: &str) {
     let repeat: usize = std::env::var("BVH_BENCH_REPEAT")
         .ok()
@@ -478,12 +478,14 @@ fn profile(w: &Workload, kind: &str) {
     let bvh = Bvh::build(&w.geometry, Accel::Sah);
     for set in ray_sets(w, &bvh).iter().filter(|s| s.kind == kind) {
         let mut stats = TraversalStats::default();
+        // Result buffers reused from batch to batch, as the renderer does.
+        let (mut hits, mut occluded) = (Hits::default(), Vec::new());
         let t0 = std::time::Instant::now();
         for rays in std::iter::repeat_n(&set.batches, repeat).flatten() {
             if set.shadow {
-                bvh.occluded(rays, &mut Vec::new(), &mut stats);
+                bvh.occluded(rays, &mut occluded, &mut stats);
             } else {
-                bvh.intersect(rays, &mut Hits::default(), &mut stats, None);
+                bvh.intersect(rays, &mut hits, &mut stats, None);
             }
         }
         let secs = t0.elapsed().as_secs_f64();

@@ -681,6 +681,16 @@ mod tests {
         }
     }
 
+    /// Bounds of the leaf holding exactly wall `wall`'s two triangles
+    /// (ids `2·wall`, `2·wall + 1`, see [`room`]), if there is one.
+    fn wall_leaf(leaves: &[(Aabb, Vec<u32>)], wall: u32) -> Option<Aabb> {
+        leaves.iter().find_map(|(b, ids)| {
+            let mut ids = ids.clone();
+            ids.sort();
+            (ids == [2 * wall, 2 * wall + 1]).then_some(*b)
+        })
+    }
+
     /// A room: floor, ceiling and three walls, two triangles each (ids
     /// 0..10, in that order), and 200 small triangles (a mesh inside).
     fn room() -> Vec<Aabb> {
@@ -726,14 +736,9 @@ mod tests {
         // Each wall is a leaf holding exactly its two triangles, with the
         // wall's flat box.
         for wall in 0..5u32 {
-            let ids = vec![2 * wall, 2 * wall + 1];
-            let leaf = found.iter().find(|(_, l)| {
-                let mut l = l.clone();
-                l.sort();
-                l == ids
-            });
-            let (b, _) = leaf.unwrap_or_else(|| panic!("wall {wall} shares a leaf: {found:?}"));
-            assert_eq!(*b, bounds[2 * wall as usize]);
+            let b = wall_leaf(&found, wall)
+                .unwrap_or_else(|| panic!("wall {wall} shares a leaf: {found:?}"));
+            assert_eq!(b, bounds[2 * wall as usize]);
         }
         // Without the isolation, the SAH puts walls together in one
         // room-sized leaf (the case this exists for).
@@ -775,11 +780,7 @@ mod tests {
         leaves(&root.unwrap(), &order, &mut found);
         for wall in 0..5u32 {
             assert!(
-                found.iter().any(|(_, l)| {
-                    let mut l = l.clone();
-                    l.sort();
-                    l == vec![2 * wall, 2 * wall + 1]
-                }),
+                wall_leaf(&found, wall).is_some(),
                 "wall {wall} shares a leaf"
             );
         }

@@ -718,31 +718,25 @@ mod tests {
             extent: (dim_x.abs() + dim_y.abs()).max_element(),
             scene_extent: 1.49,
         };
-        let mut rays = Rays::default();
+        // The shadow rays, and the same rays carried on to the light's
+        // plane (which must hit the light).
+        let (mut shadow, mut carried) = (Rays::default(), Rays::default());
         for i in 0..64 {
             let p = Vec3::new((i % 8) as f32 * 0.2 - 0.7, 0.0, (i / 8) as f32 * 0.2 - 0.7);
             let origin = offset_by(p, Vec3::Y, 1e-6);
             let (u, v) = (((i % 7) as f32 + 0.5) / 7.0, ((i % 5) as f32 + 0.5) / 5.0);
             let s = light.sample(p, origin, Vec3::Y, u, v, 0.0).unwrap();
-            rays.push(origin, s.direction, s.t_max);
-            // The same ray carried on to the light's plane hits the light.
-            rays.push(origin, s.direction, 1.001);
+            shadow.push(origin, s.direction, s.t_max);
+            carried.push(origin, s.direction, 1.001);
         }
         let mut occluded = Vec::new();
         let mut stats = TraversalStats::default();
-        let shadow: Rays = {
-            let mut r = Rays::default();
-            for i in (0..rays.len()).step_by(2) {
-                r.push(rays.origin(i), rays.direction(i), rays.t_max[i]);
-            }
-            r
-        };
         bvh.occluded(&shadow, &mut occluded, &mut stats);
         assert!(occluded.iter().all(|&o| !o), "a shadow ray hit the light");
         assert_eq!(stats.primitives_tested, 0, "shadow rays tested triangles");
-        bvh.occluded(&rays, &mut occluded, &mut stats);
-        for i in (1..rays.len()).step_by(2) {
-            assert!(occluded[i], "ray {i} carried on misses the light");
+        bvh.occluded(&carried, &mut occluded, &mut stats);
+        for (i, &o) in occluded.iter().enumerate() {
+            assert!(o, "ray {i} carried on misses the light");
         }
         // A small occluder 1e-3 below the light's centre (a few times the
         // cap on the clearance) still casts its shadow.

@@ -222,27 +222,11 @@ impl SurfacePoints {
                 }))
             };
         let (lo, hi) = (rows(0), rows(8));
-        let tail = |k: usize| f32x8::from(corners.map(|r| r.coords[k]));
-        let coord = [
-            lo[0],
-            lo[1],
-            lo[2],
-            lo[3],
-            lo[4],
-            lo[5],
-            lo[6],
-            lo[7],
-            hi[0],
-            hi[1],
-            hi[2],
-            hi[3],
-            hi[4],
-            hi[5],
-            hi[6],
-            hi[7],
-            tail(16),
-            tail(17),
-        ];
+        let coord: [L; 18] = std::array::from_fn(|k| match k {
+            0..8 => lo[k],
+            8..16 => hi[k - 8],
+            _ => f32x8::from(corners.map(|r| r.coords[k])),
+        });
         let corner = |k: usize| Vec3x8::new(coord[3 * k], coord[3 * k + 1], coord[3 * k + 2]);
         let normal = |k: usize| corner(k + 3);
         let load = |v: &[f32]| lanes::load(&v[..end], start);
