@@ -308,6 +308,16 @@ impl Bvh {
             // Rays that miss the scene's bounds skip traversal altogether
             // (counted as one node visit: the box test they did get).
             let (cull, candidates) = self.cull(&scene, &src, start);
+            if candidates == 0 {
+                // The whole slot misses the scene: a quarter or more of
+                // the camera rays in a typical view.
+                let end = (start + WIDTH).min(n);
+                nodes += (end - start) as u64;
+                if let Some(cost) = cost.as_deref_mut() {
+                    cost[start..end].fill(1);
+                }
+                continue;
+            }
             if let (Some(scene), None) = (&scene, &cost)
                 && let Some((packet, active)) = Self::packet(&src, start, &cull)
             {
@@ -398,6 +408,10 @@ impl Bvh {
         let src = ray_src(rays);
         for start in (0..n).step_by(WIDTH) {
             let (cull, candidates) = self.cull(&scene, &src, start);
+            if candidates == 0 {
+                nodes += ((start + WIDTH).min(n) - start) as u64;
+                continue;
+            }
             // Two or more rays walk the tree as a bundle; a lone ray walks
             // it alone (a bundle of one would only add bookkeeping).
             if let (Some(scene), Some(c)) = (&scene, &cull)

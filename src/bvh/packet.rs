@@ -10,7 +10,12 @@
 //! against all rays at once (lanes = rays), the children hit by any active
 //! ray are visited nearest first along the packet's leading ray, and each
 //! stack entry carries the mask of rays that entered it and their entry
-//! distances. Leaves run the single-ray primitive tests, ray by ray.
+//! distances. At a triangle leaf, when the rays share one permutation of
+//! the watertight test (the same major axis and sign, as coherent rays
+//! do) and outnumber a group's triangles, each triangle is tested against
+//! all rays at once (lanes = rays); otherwise each ray runs the
+//! single-ray group test (lanes = triangles). Either way every (ray,
+//! triangle) pair computes the same values.
 //!
 //! The box test is the same arithmetic as [`RayBox`](super::traverse)'s, lane
 //! by lane (same operations, same order, same conservative margins), and
@@ -26,7 +31,7 @@ use glam::Vec3;
 
 use super::flatten::{ChildRef, WideNode};
 use super::traverse::{Closest, Cull, Ray8Src, Scene, T_FAR_MARGIN, Work, slab_test};
-use super::triangle::RayTri;
+use super::triangle::PacketTri;
 use super::{Lanes, WIDTH};
 use crate::lanes::Vec3x8;
 
@@ -61,8 +66,8 @@ pub(crate) struct Packet {
     dir: [Vec3; WIDTH],
     /// Direction of the first active ray: orders the children.
     lead: Vec3,
-    /// Triangle-test setup per lane.
-    tri: [RayTri; WIDTH],
+    /// Triangle-test setup of the rays.
+    tri: PacketTri,
 }
 
 impl Packet {
@@ -91,11 +96,6 @@ impl Packet {
         let slack = cull.slack();
         let org = Vec3x8::new(o[0], o[1], o[2]).to_array();
         let dir = Vec3x8::new(d[0], d[1], d[2]).to_array();
-        // A plain loop: `array::from_fn` here was left as a call.
-        let mut tri = [cull.ray_tri(0, org[0]); WIDTH];
-        for (lane, t) in tri.iter_mut().enumerate().skip(1) {
-            *t = cull.ray_tri(lane, org[lane]);
-        }
         Some(Packet {
             o,
             inv,
@@ -104,7 +104,7 @@ impl Packet {
             org,
             dir,
             lead: dir[active.trailing_zeros() as usize],
-            tri,
+            tri: cull.packet_tri(active, &o, &org),
         })
     }
 
@@ -219,9 +219,14 @@ pub(crate) fn closest(
                 continue;
             }
         } else {
-            for i in crate::lanes::each(mask) {
-                let ray = (packet.org[i], packet.dir[i]);
-                scene.leaf_closest(child, ray, &packet.tri[i], &mut best[i], &mut work[i]);
+            if child.is_sphere() {
+                for i in crate::lanes::each(mask) {
+                    let ray = (packet.org[i], packet.dir[i]);
+                    let tri = packet.tri.ray(i);
+                    scene.leaf_closest(child, ray, &tri, &mut best[i], &mut work[i]);
+                }
+            } else {
+                scene.leaf_closest_packet(child, mask, &packet.tri, best, work);
             }
             t_best = Lanes::from(best.map(|b| b.t));
         }

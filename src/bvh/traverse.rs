@@ -34,7 +34,9 @@ use glam::Vec3;
 
 use super::flatten::{ChildRef, WideNode};
 use super::sphere::{PackedSphere, intersect_sphere};
-use super::triangle::{RayTri, RayTriLanes, TriGroup, intersect_group};
+use super::triangle::{
+    GroupHit, PacketTri, RayTri, RayTriLanes, TriGroup, intersect_group, intersect_rays,
+};
 use super::{Lanes, WIDTH};
 use crate::ray::NO_HIT;
 
@@ -187,6 +189,13 @@ impl Cull {
     pub fn ray_tri(&self, lane: usize, o: Vec3) -> RayTri {
         self.tri.ray(lane, o)
     }
+
+    /// Triangle-test setup of the rays in `active` as a packet; their
+    /// origins are `o` per axis and `org` per lane.
+    #[inline(always)]
+    pub fn packet_tri(&self, active: u32, o: &[Lanes; 3], org: &[Vec3; WIDTH]) -> PacketTri {
+        PacketTri::new(&self.tri, active, o, org)
+    }
 }
 
 /// Which of the (up to) [`WIDTH`] rays `start..` of `rays` may hit the box
@@ -236,13 +245,19 @@ pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start
     let slack = Lanes::splat(SLACK_ULPS) * (Lanes::splat(extent) + max_abs_o) * min_inv;
     let t_cull = t_max * Lanes::splat(T_FAR_MARGIN) + slack;
     let (hit, _) = slab_test(near, far, &o, &inv, t_cull);
+    let mask = hit.to_bitmask() & valid.to_bitmask() & ((1u32 << (end - start)) - 1);
     Cull {
-        mask: hit.to_bitmask() & valid.to_bitmask() & ((1u32 << (end - start)) - 1),
+        mask,
         inv: inv.map(Lanes::to_array),
         slack: slack.to_array(),
         // ±0 gives ±∞, whose sign still picks the right near plane.
         negative: positive.map(|p| !p.to_bitmask() & 0xff),
-        tri: RayTriLanes::new(dir, inv),
+        // No ray of the slot will test a triangle if none passed.
+        tri: if mask != 0 {
+            RayTriLanes::new(dir, inv)
+        } else {
+            RayTriLanes::default()
+        },
     }
 }
 
@@ -291,6 +306,23 @@ pub(crate) struct Closest {
 }
 
 impl Closest {
+    /// Takes the hit in `lane` of `h` (at `t`, on primitive `id`) if it is
+    /// nearer. Exact ties go to the lower id, so the result does not depend
+    /// on the order the tree is walked in (single ray or packet) nor on
+    /// which lane of which test found the hit.
+    #[inline(always)]
+    fn offer(&mut self, t: f32, id: u32, h: &GroupHit, lane: usize) {
+        if t < self.t || (t == self.t && id < self.prim) {
+            let det = h.det.to_array()[lane];
+            *self = Closest {
+                t,
+                prim: id,
+                u: h.v.to_array()[lane] / det,
+                v: h.w.to_array()[lane] / det,
+            };
+        }
+    }
+
     /// No hit yet on a ray that ends at `t_max`.
     pub fn none(t_max: f32) -> Closest {
         Closest {
@@ -327,27 +359,20 @@ pub(crate) fn new_stack() -> Stack {
 fn leaf_triangles(groups: &[TriGroup], tri: &RayTri, best: &mut Closest, work: &mut Work) {
     for g in groups {
         work.prims += g.len();
-        let h = intersect_group(g, tri, best.t);
-        let mut mask = h.mask;
-        if mask == 0 {
-            continue;
-        }
-        let t = h.t.to_array();
-        while mask != 0 {
-            let lane = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            // Exact ties go to the lower id, so the result does not depend
-            // on the order the tree is walked in (single ray or packet).
-            if t[lane] < best.t || (t[lane] == best.t && g.id[lane] < best.prim) {
-                let det = h.det.to_array()[lane];
-                *best = Closest {
-                    t: t[lane],
-                    prim: g.id[lane],
-                    u: h.v.to_array()[lane] / det,
-                    v: h.w.to_array()[lane] / det,
-                };
-            }
-        }
+        group_closest(g, tri, best);
+    }
+}
+
+/// Tests a ray against the triangles of one group, narrowing `best`.
+#[inline(always)]
+fn group_closest(g: &TriGroup, tri: &RayTri, best: &mut Closest) {
+    let h = intersect_group(g, tri, best.t);
+    if h.mask == 0 {
+        return;
+    }
+    let t = h.t.to_array();
+    for lane in crate::lanes::each(h.mask) {
+        best.offer(t[lane], g.id[lane], &h, lane);
     }
 }
 
@@ -386,6 +411,53 @@ impl Scene<'_> {
             leaf_spheres(&self.spheres[items], o, d, best, work);
         } else {
             leaf_triangles(&self.tri_groups[items], tri, best, work);
+        }
+    }
+
+    /// Tests the rays `rays` of a packet against the primitives of the
+    /// triangle leaf `leaf`, narrowing each ray's `best`. `shared` is the
+    /// packet's triangle-test setup if its rays share one permutation,
+    /// `single` each ray's own. A group is tested triangle by triangle
+    /// against all rays at once when there are more rays than triangles
+    /// (lanes = rays), else ray by ray (lanes = triangles); each (ray,
+    /// triangle) pair computes the same values either way.
+    #[inline(never)]
+    pub fn leaf_closest_packet(
+        &self,
+        leaf: ChildRef,
+        rays: u32,
+        tri: &PacketTri,
+        best: &mut [Closest; WIDTH],
+        work: &mut [Work; WIDTH],
+    ) {
+        let n_rays = rays.count_ones();
+        for g in &self.tri_groups[leaf.index()..leaf.index() + leaf.count()] {
+            let len = g.len();
+            for i in crate::lanes::each(rays) {
+                work[i].prims += len;
+            }
+            match tri {
+                PacketTri::Shared(packet) if n_rays > len => {
+                    let mut t_best = Lanes::from(best.map(|b| b.t));
+                    for lane in 0..len as usize {
+                        let h = intersect_rays(g, lane, packet, t_best);
+                        let hit = h.mask & rays;
+                        if hit == 0 {
+                            continue;
+                        }
+                        let t = h.t.to_array();
+                        for i in crate::lanes::each(hit) {
+                            best[i].offer(t[i], g.id[lane], &h, i);
+                        }
+                        t_best = Lanes::from(best.map(|b| b.t));
+                    }
+                }
+                _ => {
+                    for i in crate::lanes::each(rays) {
+                        group_closest(g, &tri.ray(i), &mut best[i]);
+                    }
+                }
+            }
         }
     }
 

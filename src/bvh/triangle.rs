@@ -103,7 +103,7 @@ impl RayTri {
 /// vector instructions once per batch slot (the batch cull has the
 /// reciprocal directions already): which axis is major, whether the other
 /// two swap, and the shear.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct RayTriLanes {
     /// Lanes whose major axis is x, and (of the others) y.
     major_x: u32,
@@ -141,9 +141,9 @@ impl RayTriLanes {
         }
     }
 
-    /// The full setup of the ray in `lane`, whose origin is `o`.
+    /// The permutation `[kx, ky, kz]` of the ray in `lane`.
     #[inline(always)]
-    pub fn ray(&self, lane: usize, o: Vec3) -> RayTri {
+    fn k(&self, lane: usize) -> [usize; 3] {
         let bit = |mask: u32| (mask >> lane) & 1 != 0;
         let kz = if bit(self.major_x) {
             0
@@ -157,14 +157,92 @@ impl RayTriLanes {
         if bit(self.flip) {
             std::mem::swap(&mut kx, &mut ky);
         }
+        [kx, ky, kz]
+    }
+
+    /// The full setup of the ray in `lane`, whose origin is `o`.
+    #[inline(always)]
+    pub fn ray(&self, lane: usize, o: Vec3) -> RayTri {
+        let k = self.k(lane);
         let o = o.to_array();
         let lane = lane % WIDTH;
         RayTri {
-            k: [kx, ky, kz],
+            k,
             s: self.shear.map(|s| s[lane]),
-            o: [o[kx], o[ky], o[kz]],
+            o: k.map(|axis| o[axis]),
         }
     }
+
+    /// The setup of the rays in `active` (origins `o`, per axis) as one
+    /// packet, if they share their permutation: the same major axis and
+    /// the same sign along it, as coherent rays mostly do.
+    #[inline(always)]
+    pub fn packet(&self, active: u32, o: &[Lanes; 3]) -> Option<RayTriPacket> {
+        let uniform = |mask: u32| mask & active == 0 || mask & active == active;
+        if !(uniform(self.major_x) && uniform(self.major_y) && uniform(self.flip)) {
+            return None;
+        }
+        let k = self.k(active.trailing_zeros() as usize);
+        Some(RayTriPacket {
+            k,
+            s: self.shear.map(TriLanes::from),
+            o: k.map(|axis| o[axis]),
+        })
+    }
+}
+
+/// The triangle-test setup of a packet's rays: lane-wise when they share
+/// one permutation (coherent rays), else one [`RayTri`] per lane.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum PacketTri {
+    Shared(RayTriPacket),
+    PerRay([RayTri; WIDTH]),
+}
+
+impl PacketTri {
+    /// The setup of the rays in `active` of a batch slot whose
+    /// direction-only setup is `lanes` and origins are `o` (per axis and
+    /// per lane).
+    #[inline(always)]
+    pub fn new(lanes: &RayTriLanes, active: u32, o: &[Lanes; 3], org: &[Vec3; WIDTH]) -> PacketTri {
+        match lanes.packet(active, o) {
+            Some(shared) => PacketTri::Shared(shared),
+            None => {
+                // A plain loop: `array::from_fn` here was left as a call.
+                let mut tri = [lanes.ray(0, org[0]); WIDTH];
+                for (lane, t) in tri.iter_mut().enumerate().skip(1) {
+                    *t = lanes.ray(lane, org[lane]);
+                }
+                PacketTri::PerRay(tri)
+            }
+        }
+    }
+
+    /// The setup of the ray in `lane` alone.
+    #[inline(always)]
+    pub fn ray(&self, lane: usize) -> RayTri {
+        match self {
+            PacketTri::Shared(p) => RayTri {
+                k: p.k,
+                s: p.s.map(|s| s.as_array()[lane % WIDTH]),
+                o: p.o.map(|o| o.as_array()[lane % WIDTH]),
+            },
+            PacketTri::PerRay(tri) => tri[lane % WIDTH],
+        }
+    }
+}
+
+/// [`RayTri`] for the rays of a packet that share one permutation, lane
+/// by lane, so that one triangle can be tested against all of them at
+/// once ([`intersect_rays`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RayTriPacket {
+    /// The shared permutation `[kx, ky, kz]`.
+    pub k: [usize; 3],
+    /// Shear and scale per lane, as in [`RayTri::s`].
+    pub s: [TriLanes; 3],
+    /// Origin per lane in the permuted frame.
+    pub o: [TriLanes; 3],
 }
 
 /// Result of a group test: which lanes hit within `[0, t_far]`, and their
@@ -181,28 +259,54 @@ pub(crate) struct GroupHit {
 /// crosses its triangle at `t` in `[0, t_far]`.
 #[inline(always)]
 pub(crate) fn intersect_group(g: &TriGroup, r: &RayTri, t_far: f32) -> GroupHit {
-    let [kx, ky, kz] = r.k;
-    let (ox, oy, oz) = (
-        TriLanes::splat(r.o[0]),
-        TriLanes::splat(r.o[1]),
-        TriLanes::splat(r.o[2]),
-    );
-    let (sx, sy, sz) = (
-        TriLanes::splat(r.s[0]),
-        TriLanes::splat(r.s[1]),
-        TriLanes::splat(r.s[2]),
-    );
+    test_pairs(
+        |vertex, axis| g.v[vertex][r.k[axis]],
+        r.o.map(TriLanes::splat),
+        r.s.map(TriLanes::splat),
+        TriLanes::splat(t_far),
+    )
+}
 
+/// Tests triangle `lane` of `g` against the rays of a packet that share
+/// one permutation `k`: ray `i` (lane `i`) crosses it at `t` in
+/// `[0, t_far[i]]`. Each lane computes exactly what [`intersect_group`]
+/// computes for that ray and triangle.
+#[inline(always)]
+pub(crate) fn intersect_rays(
+    g: &TriGroup,
+    lane: usize,
+    rays: &RayTriPacket,
+    t_far: Lanes,
+) -> GroupHit {
+    test_pairs(
+        |vertex, axis| TriLanes::splat(g.v[vertex][rays.k[axis]].as_array()[lane]),
+        rays.o,
+        rays.s,
+        t_far,
+    )
+}
+
+/// The watertight test on [`TRI_WIDTH`] (ray, triangle) pairs, one per
+/// lane: `p(vertex, axis)` gives each lane's triangle vertex along its
+/// ray's permuted axis (0, 1, 2 = kx, ky, kz), `o` and `s` the ray's
+/// permuted origin and shear (see [`RayTri`]), `t_far` the end of the ray.
+#[inline(always)]
+fn test_pairs(
+    p: impl Fn(usize, usize) -> TriLanes,
+    [ox, oy, oz]: [TriLanes; 3],
+    [sx, sy, sz]: [TriLanes; 3],
+    t_far: TriLanes,
+) -> GroupHit {
     // Vertices relative to the origin, then sheared so the ray is +z.
-    let az = g.v[0][kz] - oz;
-    let bz = g.v[1][kz] - oz;
-    let cz = g.v[2][kz] - oz;
-    let ax = (g.v[0][kx] - ox) - sx * az;
-    let ay = (g.v[0][ky] - oy) - sy * az;
-    let bx = (g.v[1][kx] - ox) - sx * bz;
-    let by = (g.v[1][ky] - oy) - sy * bz;
-    let cx = (g.v[2][kx] - ox) - sx * cz;
-    let cy = (g.v[2][ky] - oy) - sy * cz;
+    let az = p(0, 2) - oz;
+    let bz = p(1, 2) - oz;
+    let cz = p(2, 2) - oz;
+    let ax = (p(0, 0) - ox) - sx * az;
+    let ay = (p(0, 1) - oy) - sy * az;
+    let bx = (p(1, 0) - ox) - sx * bz;
+    let by = (p(1, 1) - oy) - sy * bz;
+    let cx = (p(2, 0) - ox) - sx * cz;
+    let cy = (p(2, 1) - oy) - sy * cz;
 
     let mut u = cx * by - cy * bx;
     let mut v = ax * cy - ay * cx;
@@ -243,7 +347,7 @@ pub(crate) fn intersect_group(g: &TriGroup, r: &RayTri, t_far: f32) -> GroupHit 
     }
     let t_num = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
     let t = t_num / det;
-    let ok = inside & t.simd_ge(zero) & t.simd_le(TriLanes::splat(t_far));
+    let ok = inside & t.simd_ge(zero) & t.simd_le(t_far);
     GroupHit {
         mask: ok.to_bitmask(),
         t,
