@@ -20,9 +20,10 @@
 //!   rays at a time against the scene bounds, then each surviving ray walks
 //!   the tree with a conservative (Ize 2013) slab test: nearest child first
 //!   for closest hits, in slot order for any hits.
-//! * [`packet`](self::packet): closest hit — when those [`WIDTH`] rays all
-//!   point into one octant (the samples of a pixel) they walk the tree
-//!   together instead, one lane per ray, with the same answers bit for bit.
+//! * [`packet`](self::packet): closest hit — when those [`WIDTH`] rays (or
+//!   those of two neighbouring slots, on AVX-512) all point into one octant
+//!   (the samples of a pixel) they walk the tree together instead, one lane
+//!   per ray, with the same answers bit for bit.
 //! * [`bundle`](self::bundle): any hit — two or more rays of a slot walk
 //!   the tree together, each tested alone at every node it enters, sharing
 //!   the walk's control (the shadow rays of one path vertex share most of
@@ -83,6 +84,12 @@ use triangle::TriGroup;
 /// other factor of two is the margin for the rounding of the slab test
 /// and of `t` itself.
 pub(crate) const END_CLEARANCE: f32 = 4.0 * traverse::SLACK_ULPS;
+
+/// Whether closest-hit packets may span two batch slots (sixteen rays in
+/// `wide::f32x16` registers): only where those are one register. On this
+/// project's AVX-512 target they cut the packets' per-node control per ray
+/// by half (PERF.md); with 8-lane hardware each operation would be two.
+const WIDE_PACKETS: bool = cfg!(target_feature = "avx512f");
 
 /// SIMD register type of the node and triangle tests.
 pub(crate) type Lanes = wide::f32x8;
@@ -295,104 +302,51 @@ impl Bvh {
         rays: &Rays,
         hits: &mut Hits,
         stats: &mut TraversalStats,
-        mut cost: Option<&mut [u32]>,
+        cost: Option<&mut [u32]>,
     ) {
         let n = rays.len();
         hits.reset(n);
-        let (mut nodes, mut prims) = (0u64, 0u64);
         let scene = self.scene();
-        let mut stack = traverse::new_stack();
-        let mut packet_stack = packet::new_packet_stack();
         let src = ray_src(rays);
-        for start in (0..n).step_by(WIDTH) {
+        let mut batch = ClosestBatch {
+            bvh: self,
+            rays,
+            hits,
+            cost,
+            stack: traverse::new_stack(),
+            packets: packet::new_packet_stack(),
+            wide_packets: packet::new_packet_stack(),
+            nodes: 0,
+            prims: 0,
+        };
+        // Two batch slots at a time: when all their rays that may hit
+        // point into one octant, they walk the tree as one wide packet.
+        for start in (0..n).step_by(packet::MAX_RAYS) {
             // Rays that miss the scene's bounds skip traversal altogether
             // (counted as one node visit: the box test they did get).
-            let (cull, candidates) = self.cull(&scene, &src, start);
-            if candidates == 0 {
-                // The whole slot misses the scene: a quarter or more of
-                // the camera rays in a typical view.
-                let end = (start + WIDTH).min(n);
-                nodes += (end - start) as u64;
-                if let Some(cost) = cost.as_deref_mut() {
-                    cost[start..end].fill(1);
-                }
-                continue;
-            }
-            if let (Some(scene), None) = (&scene, &cost)
-                && let Some((packet, active)) = Self::packet(&src, start, &cull)
+            let first = self.cull(&scene, &src, start);
+            let second = (start + WIDTH < n).then(|| self.cull(&scene, &src, start + WIDTH));
+            if let (true, Some(scene), None, (Some(c0), m0), Some((Some(c1), m1))) =
+                (WIDE_PACKETS, &scene, &batch.cost, &first, &second)
+                && *m0 != 0
+                && *m1 != 0
+                && let Some((packet, active)) =
+                    packet::Packet::<wide::f32x16>::new(&src, start, &[c0, c1])
             {
-                let mut best = [traverse::Closest::none(0.0); WIDTH];
-                for (lane, b) in best.iter_mut().enumerate() {
-                    if start + lane < n {
-                        *b = traverse::Closest::none(rays.t_max[start + lane]);
-                    }
-                }
-                let mut work = [traverse::Work::default(); WIDTH];
-                let mut visits = 0;
-                packet::closest(
-                    scene,
-                    &mut packet_stack,
-                    &packet,
-                    active,
-                    &mut best,
-                    &mut work,
-                    &mut visits,
-                );
-                let end = (start + WIDTH).min(n);
-                for (i, c) in (start..end).zip(&best) {
-                    if c.prim != crate::ray::NO_HIT {
-                        hits.t[i] = c.t;
-                        hits.prim[i] = c.prim;
-                        hits.u[i] = c.u;
-                        hits.v[i] = c.v;
-                    }
-                }
-                nodes += slot_nodes(visits, candidates, end - start);
-                prims += work.iter().map(|w| w.prims as u64).sum::<u64>();
+                let candidates = m0 | m1 << WIDTH;
+                let mut stack = std::mem::take(&mut batch.wide_packets);
+                batch.trace_packet(scene, &mut stack, &packet, active, start, candidates);
+                batch.wide_packets = stack;
                 continue;
             }
-            for i in start..(start + WIDTH).min(n) {
-                let mut work = traverse::Work::default();
-                if candidates & (1 << (i - start)) == 0 {
-                    work.nodes = 1;
-                } else {
-                    let o = rays.origin(i);
-                    let d = rays.direction(i);
-                    let t_max = rays.t_max[i];
-                    let c = match (&scene, &cull) {
-                        (Some(scene), Some(cull)) => traverse::closest(
-                            scene,
-                            &mut stack,
-                            (cull, i - start),
-                            (o, d, t_max),
-                            &mut work,
-                        ),
-                        _ => traverse::closest_brute(
-                            &self.tri_groups,
-                            &self.spheres,
-                            o,
-                            d,
-                            t_max,
-                            &mut work,
-                        ),
-                    };
-                    if c.prim != crate::ray::NO_HIT {
-                        hits.t[i] = c.t;
-                        hits.prim[i] = c.prim;
-                        hits.u[i] = c.u;
-                        hits.v[i] = c.v;
-                    }
-                }
-                if let Some(cost) = cost.as_deref_mut() {
-                    cost[i] = work.nodes + work.prims;
-                }
-                nodes += work.nodes as u64;
-                prims += work.prims as u64;
+            batch.slot(&scene, &src, start, first);
+            if let Some(second) = second {
+                batch.slot(&scene, &src, start + WIDTH, second);
             }
         }
         stats.rays += n as u64;
-        stats.nodes_visited += nodes;
-        stats.primitives_tested += prims;
+        stats.nodes_visited += batch.nodes;
+        stats.primitives_tested += batch.prims;
     }
 
     /// Whether anything is hit in `[0, t_max]`, for every ray of the batch
@@ -497,19 +451,6 @@ impl Bvh {
         }
     }
 
-    /// The rays of a batch slot that the cull let through, as a packet,
-    /// when packet traversal pays: a real hierarchy (a cull), at least two
-    /// rays, all in one octant.
-    #[inline(always)]
-    fn packet(
-        src: &traverse::Ray8Src,
-        start: usize,
-        cull: &Option<traverse::Cull>,
-    ) -> Option<(packet::Packet, u32)> {
-        let cull = cull.as_ref().filter(|c| c.mask.count_ones() >= 2)?;
-        packet::Packet::new(src, start, cull).map(|p| (p, cull.mask))
-    }
-
     /// Which structure this is.
     pub fn accel(&self) -> Accel {
         self.accel
@@ -551,6 +492,133 @@ impl Bvh {
 fn slot_nodes(visits: u64, candidates: u32, lanes: usize) -> u64 {
     let in_slot = (1u32 << lanes) - 1;
     visits + u64::from((!candidates & in_slot).count_ones())
+}
+
+/// The state of one [`Bvh::intersect`] call: where results and counters
+/// go, and the traversal stacks reused across the batch.
+struct ClosestBatch<'a> {
+    bvh: &'a Bvh,
+    rays: &'a Rays,
+    hits: &'a mut Hits,
+    cost: Option<&'a mut [u32]>,
+    stack: traverse::Stack,
+    packets: packet::PacketStack<Lanes>,
+    wide_packets: packet::PacketStack<wide::f32x16>,
+    nodes: u64,
+    prims: u64,
+}
+
+impl ClosestBatch<'_> {
+    /// Traces the rays of the batch slot at `start`, whose cull (with a
+    /// hierarchy) and lanes to trace are `cull`: as a packet when that
+    /// pays (no per-ray costs asked for, two or more rays, one octant),
+    /// else ray by ray.
+    #[inline(always)]
+    fn slot(
+        &mut self,
+        scene: &Option<traverse::Scene>,
+        src: &traverse::Ray8Src,
+        start: usize,
+        (cull, candidates): (Option<traverse::Cull>, u32),
+    ) {
+        let (rays, n) = (self.rays, self.rays.len());
+        let end = (start + WIDTH).min(n);
+        if candidates == 0 {
+            // The whole slot misses the scene: a quarter or more of the
+            // camera rays in a typical view.
+            self.nodes += (end - start) as u64;
+            if let Some(cost) = self.cost.as_deref_mut() {
+                cost[start..end].fill(1);
+            }
+            return;
+        }
+        if let (Some(scene), None, Some(c)) = (scene, &self.cost, &cull)
+            && c.mask.count_ones() >= 2
+            && let Some((packet, active)) = packet::Packet::<Lanes>::new(src, start, &[c, c])
+        {
+            let mut stack = std::mem::take(&mut self.packets);
+            self.trace_packet(scene, &mut stack, &packet, active, start, candidates);
+            self.packets = stack;
+            return;
+        }
+        for i in start..end {
+            let mut work = traverse::Work::default();
+            if candidates & (1 << (i - start)) == 0 {
+                work.nodes = 1;
+            } else {
+                let (o, d, t_max) = (rays.origin(i), rays.direction(i), rays.t_max[i]);
+                let c = match (scene, &cull) {
+                    (Some(scene), Some(cull)) => traverse::closest(
+                        scene,
+                        &mut self.stack,
+                        (cull, i - start),
+                        (o, d, t_max),
+                        &mut work,
+                    ),
+                    _ => traverse::closest_brute(
+                        &self.bvh.tri_groups,
+                        &self.bvh.spheres,
+                        o,
+                        d,
+                        t_max,
+                        &mut work,
+                    ),
+                };
+                self.record(i, &c);
+            }
+            if let Some(cost) = self.cost.as_deref_mut() {
+                cost[i] = work.nodes + work.prims;
+            }
+            self.nodes += work.nodes as u64;
+            self.prims += work.prims as u64;
+        }
+    }
+
+    /// Traces `packet` (the rays `active` of the `L::SLOTS` batch slots
+    /// from `start`, of which the culls let `candidates` through).
+    #[inline(always)]
+    fn trace_packet<L: packet::RayLanes>(
+        &mut self,
+        scene: &traverse::Scene,
+        stack: &mut packet::PacketStack<L>,
+        packet: &packet::Packet<L>,
+        active: u32,
+        start: usize,
+        candidates: u32,
+    ) {
+        let end = (start + L::SLOTS * WIDTH).min(self.rays.len());
+        let mut best = [traverse::Closest::none(0.0); packet::MAX_RAYS];
+        for (b, &t_max) in best.iter_mut().zip(&self.rays.t_max[start..end]) {
+            *b = traverse::Closest::none(t_max);
+        }
+        let mut work = [traverse::Work::default(); packet::MAX_RAYS];
+        let mut visits = 0;
+        packet::closest(
+            scene,
+            stack,
+            packet,
+            active,
+            &mut best,
+            &mut work,
+            &mut visits,
+        );
+        for (i, c) in (start..end).zip(&best) {
+            self.record(i, c);
+        }
+        self.nodes += slot_nodes(visits, candidates, end - start);
+        self.prims += work.iter().map(|w| w.prims as u64).sum::<u64>();
+    }
+
+    /// Stores ray `i`'s closest hit, if any.
+    #[inline(always)]
+    fn record(&mut self, i: usize, c: &traverse::Closest) {
+        if c.prim != crate::ray::NO_HIT {
+            self.hits.t[i] = c.t;
+            self.hits.prim[i] = c.prim;
+            self.hits.u[i] = c.u;
+            self.hits.v[i] = c.v;
+        }
+    }
 }
 
 fn ray_src(rays: &Rays) -> traverse::Ray8Src<'_> {

@@ -1,5 +1,7 @@
-//! Packet traversal for closest-hit queries: [`WIDTH`] rays walk the tree
-//! together, one SIMD lane per ray.
+//! Packet traversal for closest-hit queries: the rays of one batch slot
+//! ([`WIDTH`]) or of two (sixteen, in AVX-512 registers) walk the tree
+//! together, one SIMD lane per ray. The code is generic over the register
+//! ([`RayLanes`]); leaves are handled per slot.
 //!
 //! Single-ray traversal tests one ray against a node's [`WIDTH`] child
 //! boxes at once; most of its cost per node is not that test but the
@@ -27,6 +29,8 @@
 //! caller falls back to single rays otherwise, and for the per-ray cost
 //! counters of `--shading bvh-cost`).
 
+use std::ops::{Add, Mul, Sub};
+
 use glam::Vec3;
 
 use super::flatten::{ChildRef, WideNode};
@@ -35,56 +39,145 @@ use super::triangle::PacketTri;
 use super::{Lanes, WIDTH};
 use crate::lanes::Vec3x8;
 
+/// Batch slots (of [`WIDTH`] rays) in the widest packet.
+pub(crate) const MAX_SLOTS: usize = 2;
+/// Rays in the widest packet.
+pub(crate) const MAX_RAYS: usize = MAX_SLOTS * WIDTH;
+
+/// A SIMD register with one lane per ray of a packet: [`Lanes`] for the
+/// rays of one batch slot, `wide::f32x16` for two (one AVX-512 register
+/// on this project's target). Every operation is the lane-wise IEEE one,
+/// so a ray's lane computes the same bits in either.
+pub(crate) trait RayLanes:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self>
+{
+    /// Batch slots per register.
+    const SLOTS: usize;
+    fn splat(x: f32) -> Self;
+    /// The registers of consecutive slots side by side.
+    fn from_slots(slots: [Lanes; MAX_SLOTS]) -> Self;
+    fn fast_max(self, other: Self) -> Self;
+    fn fast_min(self, other: Self) -> Self;
+    /// All-ones lanes where `self <= other`.
+    fn le(self, other: Self) -> Self;
+    fn bitmask(self) -> u32;
+}
+
+impl RayLanes for Lanes {
+    const SLOTS: usize = 1;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        Lanes::splat(x)
+    }
+    #[inline(always)]
+    fn from_slots(slots: [Lanes; MAX_SLOTS]) -> Self {
+        slots[0]
+    }
+    #[inline(always)]
+    fn fast_max(self, other: Self) -> Self {
+        Lanes::fast_max(self, other)
+    }
+    #[inline(always)]
+    fn fast_min(self, other: Self) -> Self {
+        Lanes::fast_min(self, other)
+    }
+    #[inline(always)]
+    fn le(self, other: Self) -> Self {
+        self.simd_le(other)
+    }
+    #[inline(always)]
+    fn bitmask(self) -> u32 {
+        self.to_bitmask()
+    }
+}
+
+impl RayLanes for wide::f32x16 {
+    const SLOTS: usize = 2;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        wide::f32x16::splat(x)
+    }
+    #[inline(always)]
+    fn from_slots([a, b]: [Lanes; MAX_SLOTS]) -> Self {
+        let (a, b) = (a.to_array(), b.to_array());
+        wide::f32x16::from(std::array::from_fn::<f32, 16, _>(|i| {
+            if i < WIDTH { a[i] } else { b[i - WIDTH] }
+        }))
+    }
+    #[inline(always)]
+    fn fast_max(self, other: Self) -> Self {
+        wide::f32x16::fast_max(self, other)
+    }
+    #[inline(always)]
+    fn fast_min(self, other: Self) -> Self {
+        wide::f32x16::fast_min(self, other)
+    }
+    #[inline(always)]
+    fn le(self, other: Self) -> Self {
+        self.simd_le(other)
+    }
+    #[inline(always)]
+    fn bitmask(self) -> u32 {
+        self.to_bitmask()
+    }
+}
+
 /// Stack entry: a child, the rays that entered it and where they did.
 #[derive(Clone, Copy)]
-pub(crate) struct PacketEntry {
+pub(crate) struct PacketEntry<L> {
     child: u32,
     mask: u32,
-    t_enter: Lanes,
+    t_enter: L,
 }
 
 /// Traversal stack of a packet (reused across the packets of a batch). It
 /// grows as needed, so creating one initialises nothing.
-pub(crate) type PacketStack = Vec<PacketEntry>;
+pub(crate) type PacketStack<L> = Vec<PacketEntry<L>>;
 
-pub(crate) fn new_packet_stack() -> PacketStack {
+pub(crate) fn new_packet_stack<L>() -> PacketStack<L> {
     Vec::with_capacity(64)
 }
 
 /// The packet's rays, lane-wise, with the per-ray constants of the slab
 /// test. Inactive lanes hold whatever the batch has there (or zeros past
 /// its end) and are masked out everywhere.
-pub(crate) struct Packet {
-    o: [Lanes; 3],
-    inv: [Lanes; 3],
+pub(crate) struct Packet<L> {
+    o: [L; 3],
+    inv: [L; 3],
     /// Near plane per axis (0 = min corner), shared by every lane.
     near: [usize; 3],
     /// Absolute cull slack per lane (see `traverse::SLACK_ULPS`).
-    slack: Lanes,
+    slack: L,
     /// Scalar origin and direction per lane, for the leaf tests.
-    org: [Vec3; WIDTH],
-    dir: [Vec3; WIDTH],
+    org: [Vec3; MAX_RAYS],
+    dir: [Vec3; MAX_RAYS],
     /// Direction of the first active ray: orders the children.
     lead: Vec3,
-    /// Triangle-test setup of the rays.
-    tri: PacketTri,
+    /// Triangle-test setup of the rays, per batch slot.
+    tri: [PacketTri; MAX_SLOTS],
 }
 
-impl Packet {
-    /// Gathers the rays `start..start + WIDTH` of `rays` that the batch
-    /// cull let through (`cull.mask`) into a packet, or `None` if their
-    /// directions do not all lie in one octant. The cull's reciprocal
-    /// directions and slacks are the packet's, so packet and single-ray
-    /// box decisions agree exactly.
+impl<L: RayLanes> Packet<L> {
+    /// Gathers the rays of the `L::SLOTS` batch slots from `start` that
+    /// their batch culls (`culls`, one per slot) let through into a
+    /// packet, with the mask of those rays (slot `s` in bits `8s..`), or
+    /// `None` if their directions do not all lie in one octant. The culls'
+    /// reciprocal directions and slacks are the packet's, so packet and
+    /// single-ray box decisions agree exactly.
     #[inline(always)]
-    pub fn new(rays: &Ray8Src, start: usize, cull: &Cull) -> Option<Packet> {
-        let active = cull.mask;
-        let inv = cull.inv();
+    pub fn new(rays: &Ray8Src, start: usize, culls: &[&Cull; MAX_SLOTS]) -> Option<(Self, u32)> {
+        let slots = &culls[..L::SLOTS];
+        let active = slots
+            .iter()
+            .enumerate()
+            .fold(0, |m, (s, c)| m | c.mask << (WIDTH * s));
         // The sign of 1/d (±∞ for ±0) picks the near plane, as in RayBox.
         let mut near = [0usize; 3];
-        for axis in 0..3 {
-            let negative = inv[axis].simd_lt(Lanes::ZERO).to_bitmask() & active;
-            near[axis] = if negative == 0 {
+        for (axis, near) in near.iter_mut().enumerate() {
+            let negative = slots.iter().enumerate().fold(0, |m, (s, c)| {
+                m | (c.negative(axis) & c.mask) << (WIDTH * s)
+            });
+            *near = if negative == 0 {
                 0
             } else if negative == active {
                 1
@@ -92,35 +185,45 @@ impl Packet {
                 return None;
             };
         }
-        let (o, d) = rays.lanes(start);
-        let slack = cull.slack();
-        let org = Vec3x8::new(o[0], o[1], o[2]).to_array();
-        let dir = Vec3x8::new(d[0], d[1], d[2]).to_array();
-        Some(Packet {
-            o,
-            inv,
+        let mut o_slots = [[Lanes::ZERO; 3]; MAX_SLOTS];
+        let mut org = [Vec3::ZERO; MAX_RAYS];
+        let mut dir = [Vec3::ZERO; MAX_RAYS];
+        let mut tri = [PacketTri::default(); MAX_SLOTS];
+        for (s, cull) in slots.iter().enumerate() {
+            let (o, d) = rays.lanes(start + WIDTH * s);
+            let lanes = WIDTH * s..WIDTH * (s + 1);
+            org[lanes.clone()].copy_from_slice(&Vec3x8::new(o[0], o[1], o[2]).to_array());
+            dir[lanes.clone()].copy_from_slice(&Vec3x8::new(d[0], d[1], d[2]).to_array());
+            let org_slot: &[Vec3; WIDTH] = org[lanes].try_into().unwrap();
+            tri[s] = cull.packet_tri(cull.mask, &o, org_slot);
+            o_slots[s] = o;
+        }
+        let packet = Packet {
+            o: [0, 1, 2].map(|axis| L::from_slots(o_slots.map(|o| o[axis]))),
+            inv: [0, 1, 2].map(|axis| L::from_slots(culls.map(|c| c.inv()[axis]))),
             near,
-            slack,
+            slack: L::from_slots(culls.map(|c| c.slack())),
             org,
             dir,
             lead: dir[active.trailing_zeros() as usize],
-            tri: cull.packet_tri(active, &o, &org),
-        })
+            tri,
+        };
+        Some((packet, active))
     }
 
     /// Cull distance per lane for the current far ends `t_far`.
     #[inline(always)]
-    fn cull(&self, t_far: Lanes) -> Lanes {
-        t_far * Lanes::splat(T_FAR_MARGIN) + self.slack
+    fn cull(&self, t_far: L) -> L {
+        t_far * L::splat(T_FAR_MARGIN) + self.slack
     }
 
     /// Tests child `slot` of `node` against every lane; returns the lanes
     /// (within `mask`) that enter it and their entry distances.
     #[inline(always)]
-    fn test(&self, node: &WideNode, slot: usize, cull: Lanes, mask: u32) -> (u32, Lanes) {
+    fn test(&self, node: &WideNode, slot: usize, cull: L, mask: u32) -> (u32, L) {
         let b = &node.bounds;
         let n = self.near;
-        let plane = |corner: usize, axis: usize| Lanes::splat(b[corner][axis].as_array()[slot]);
+        let plane = |corner: usize, axis: usize| L::splat(b[corner][axis].as_array()[slot]);
         let (m, t_enter) = slab_test(
             [0, 1, 2].map(|a| plane(n[a], a)),
             [0, 1, 2].map(|a| plane(1 - n[a], a)),
@@ -128,7 +231,17 @@ impl Packet {
             &self.inv,
             cull,
         );
-        (m.to_bitmask() & mask, t_enter)
+        (m.bitmask() & mask, t_enter)
+    }
+
+    /// The far ends of the packet's rays: each one's nearest hit so far.
+    #[inline(always)]
+    fn t_best(best: &[Closest; MAX_RAYS]) -> L {
+        L::from_slots(std::array::from_fn(|s| {
+            Lanes::from(std::array::from_fn::<f32, WIDTH, _>(|l| {
+                best[WIDTH * s + l].t
+            }))
+        }))
     }
 }
 
@@ -144,12 +257,12 @@ fn occupied(node: &WideNode) -> u32 {
 /// ones and returns the nearest (along the leading ray), or `None` if no
 /// ray enters any child.
 #[inline(always)]
-fn descend(
-    packet: &Packet,
+fn descend<L: RayLanes>(
+    packet: &Packet<L>,
     node: &WideNode,
     mask: u32,
-    cull: Lanes,
-    stack: &mut PacketStack,
+    cull: L,
+    stack: &mut PacketStack<L>,
 ) -> Option<(ChildRef, u32)> {
     let mut slots = occupied(node);
     // Order key: the box centre (doubled) along the leading direction.
@@ -159,7 +272,7 @@ fn descend(
         + (node.bounds[0][2] + node.bounds[1][2]) * Lanes::splat(l.z);
     let key = key.as_array();
     let mut masks = [0u32; WIDTH];
-    let mut t_enter = [Lanes::ZERO; WIDTH];
+    let mut t_enter = [L::splat(0.0); WIDTH];
     // Slots entered, insertion-sorted far to near.
     let mut order = [0usize; WIDTH];
     let mut n = 0;
@@ -197,16 +310,16 @@ fn descend(
 /// Closest hits of the packet's `active` rays. `best` holds each lane's
 /// initial `t_max` (and no hit) and receives the results; `work` the
 /// primitives each ray tested, `visits` the node visits summed over rays.
-pub(crate) fn closest(
+pub(crate) fn closest<L: RayLanes>(
     scene: &Scene,
-    stack: &mut PacketStack,
-    packet: &Packet,
+    stack: &mut PacketStack<L>,
+    packet: &Packet<L>,
     active: u32,
-    best: &mut [Closest; WIDTH],
-    work: &mut [Work; WIDTH],
+    best: &mut [Closest; MAX_RAYS],
+    work: &mut [Work; MAX_RAYS],
     visits: &mut u64,
 ) {
-    let mut t_best = Lanes::from(best.map(|b| b.t));
+    let mut t_best = Packet::<L>::t_best(best);
     stack.clear();
     let mut current = (scene.root, active);
     loop {
@@ -222,13 +335,22 @@ pub(crate) fn closest(
             if child.is_sphere() {
                 for i in crate::lanes::each(mask) {
                     let ray = (packet.org[i], packet.dir[i]);
-                    let tri = packet.tri.ray(i);
+                    let tri = packet.tri[i / WIDTH].ray(i % WIDTH);
                     scene.leaf_closest(child, ray, &tri, &mut best[i], &mut work[i]);
                 }
             } else {
-                scene.leaf_closest_packet(child, mask, &packet.tri, best, work);
+                let slots = best
+                    .chunks_exact_mut(WIDTH)
+                    .zip(work.chunks_exact_mut(WIDTH));
+                for (s, (best, work)) in slots.enumerate().take(L::SLOTS) {
+                    let rays = (mask >> (WIDTH * s)) & 0xff;
+                    if rays != 0 {
+                        let (best, work) = (best.try_into().unwrap(), work.try_into().unwrap());
+                        scene.leaf_closest_packet(child, rays, &packet.tri[s], best, work);
+                    }
+                }
             }
-            t_best = Lanes::from(best.map(|b| b.t));
+            t_best = Packet::<L>::t_best(best);
         }
         // Pop the next entry some ray still needs: entered no farther than
         // that ray's nearest hit so far.
@@ -236,7 +358,7 @@ pub(crate) fn closest(
             let Some(e) = stack.pop() else {
                 return;
             };
-            let m = e.mask & e.t_enter.simd_le(packet.cull(t_best)).to_bitmask();
+            let m = e.mask & e.t_enter.le(packet.cull(t_best)).bitmask();
             if m != 0 {
                 current = (ChildRef(e.child), m);
                 break;

@@ -33,6 +33,7 @@
 use glam::Vec3;
 
 use super::flatten::{ChildRef, WideNode};
+use super::packet::RayLanes;
 use super::sphere::{PackedSphere, intersect_sphere};
 use super::triangle::{
     GroupHit, PacketTri, RayTri, RayTriLanes, TriGroup, intersect_group, intersect_rays,
@@ -123,15 +124,15 @@ impl RayBox {
 /// axis, the exit widened by 1 + 2γ₃ (Ize) and capped at `cull`. Returns
 /// the lanes entered within `[0, cull]` (all ones) and their entry distances.
 #[inline(always)]
-pub(crate) fn slab_test(
-    near: [Lanes; 3],
-    far: [Lanes; 3],
-    o: &[Lanes; 3],
-    inv: &[Lanes; 3],
-    cull: Lanes,
-) -> (Lanes, Lanes) {
-    let mut t_enter = Lanes::ZERO;
-    let mut t_exit = Lanes::splat(f32::INFINITY);
+pub(crate) fn slab_test<L: RayLanes>(
+    near: [L; 3],
+    far: [L; 3],
+    o: &[L; 3],
+    inv: &[L; 3],
+    cull: L,
+) -> (L, L) {
+    let mut t_enter = L::splat(0.0);
+    let mut t_exit = L::splat(f32::INFINITY);
     for axis in 0..3 {
         let t0 = (near[axis] - o[axis]) * inv[axis];
         let t1 = (far[axis] - o[axis]) * inv[axis];
@@ -140,8 +141,8 @@ pub(crate) fn slab_test(
         t_enter = t0.fast_max(t_enter);
         t_exit = t1.fast_min(t_exit);
     }
-    let t_exit = (t_exit * Lanes::splat(1.0 + 2.0 * GAMMA3)).fast_min(cull);
-    (t_enter.simd_le(t_exit), t_enter)
+    let t_exit = (t_exit * L::splat(1.0 + 2.0 * GAMMA3)).fast_min(cull);
+    (t_enter.le(t_exit), t_enter)
 }
 
 /// What the batch cull ([`may_hit`]) found for (up to) [`WIDTH`] rays,
@@ -164,6 +165,13 @@ impl Cull {
     #[inline(always)]
     pub fn inv(&self) -> [Lanes; 3] {
         self.inv.map(Lanes::from)
+    }
+
+    /// Lanes whose direction along `axis` is negative (1/d < 0,
+    /// including −0), as bits.
+    #[inline(always)]
+    pub fn negative(&self, axis: usize) -> u32 {
+        self.negative[axis]
     }
 
     /// Absolute cull slack of the eight lanes.
@@ -590,7 +598,7 @@ fn push_unordered(node: &WideNode, mask: u32, stack: &mut Stack, sp: &mut usize)
 /// Closest hit along `o + t·d`, `t ∈ [0, t_max]`, for the ray in `lane`
 /// of a batch cull that let it through (its bit is set in `cull.mask`,
 /// so the ray can hit something: see [`never_hits`]).
-#[inline]
+#[inline(always)]
 pub(crate) fn closest(
     scene: &Scene,
     stack: &mut Stack,

@@ -199,6 +199,18 @@ pub(crate) enum PacketTri {
     PerRay([RayTri; WIDTH]),
 }
 
+impl Default for PacketTri {
+    /// A placeholder for the unused slots of a packet narrower than the
+    /// widest (cheap to make, never read).
+    fn default() -> PacketTri {
+        PacketTri::Shared(RayTriPacket {
+            k: [0, 1, 2],
+            s: [TriLanes::ZERO; 3],
+            o: [TriLanes::ZERO; 3],
+        })
+    }
+}
+
 impl PacketTri {
     /// The setup of the rays in `active` of a batch slot whose
     /// direction-only setup is `lanes` and origins are `o` (per axis and
