@@ -170,11 +170,17 @@ fn rays_strategy(n: usize, extent: f32) -> impl Strategy<Value = Rays> {
     })
 }
 
-/// Groups of 8 rays from one origin in a narrow cone, as the samples of
-/// a pixel or the shadow rays of one path vertex are: most groups lie in
-/// one octant and are traced as packets (closest hit); any-hit queries
-/// trace every slot of two or more rays as a bundle.
-fn coherent_rays_strategy(groups: usize, extent: f32) -> impl Strategy<Value = Rays> {
+/// Groups of `per_cone` rays from one origin in a narrow cone, as the
+/// samples of a pixel or the shadow rays of one path vertex are: most
+/// groups lie in one octant and are traced as packets (closest hit; with
+/// 16 per cone, two batch slots at a time where the target has 16-lane
+/// registers); any-hit queries trace every slot of two or more rays as a
+/// bundle.
+fn coherent_rays_strategy(
+    groups: usize,
+    per_cone: usize,
+    extent: f32,
+) -> impl Strategy<Value = Rays> {
     proptest::collection::vec(
         (
             vec3(-extent..extent),
@@ -184,7 +190,7 @@ fn coherent_rays_strategy(groups: usize, extent: f32) -> impl Strategy<Value = R
                     vec3(-0.1..0.1),
                     prop_oneof![Just(f32::INFINITY), 0.0f32..3.0 * extent],
                 ),
-                8,
+                per_cone,
             ),
         ),
         groups,
@@ -207,9 +213,22 @@ proptest! {
     fn coherent_bundles(
         tris in proptest::collection::vec((vec3(-1.0..1.0), vec3(-0.3..0.3), vec3(-0.3..0.3)), 1..400),
         spheres in proptest::collection::vec((vec3(-1.0..1.0), 0.01f32..0.4), 0..8),
-        rays in coherent_rays_strategy(48, 1.5),
+        rays in coherent_rays_strategy(48, 8, 1.5),
     ) {
         let g = soup(tris, spheres);
+        compare(&g, &rays).map_err(TestCaseError::fail)?;
+    }
+
+    /// Sixteen-ray cones, and a batch that ends part-way through the
+    /// second slot of a pair (13 rays of the last cone).
+    #[test]
+    fn coherent_wide_packets(
+        tris in proptest::collection::vec((vec3(-1.0..1.0), vec3(-0.3..0.3), vec3(-0.3..0.3)), 1..400),
+        rays in coherent_rays_strategy(12, 16, 1.5),
+    ) {
+        let mut rays = rays;
+        rays.truncate(rays.len() - 3);
+        let g = soup(tris, Vec::new());
         compare(&g, &rays).map_err(TestCaseError::fail)?;
     }
 
@@ -222,7 +241,7 @@ proptest! {
     fn room_around_a_soup(
         tris in proptest::collection::vec((vec3(-0.5..0.5), vec3(-0.1..0.1), vec3(-0.1..0.1)), 1..200),
         rays in rays_strategy(256, 1.2),
-        coherent in coherent_rays_strategy(16, 1.2),
+        coherent in coherent_rays_strategy(16, 8, 1.2),
     ) {
         let mut all = tris;
         let corners = |x: [f32; 2], y: [f32; 2], z: [f32; 2], along_x: bool| {

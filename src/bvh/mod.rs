@@ -314,34 +314,35 @@ impl Bvh {
             hits,
             cost,
             stack: traverse::new_stack(),
-            packets: packet::new_packet_stack(),
-            wide_packets: packet::new_packet_stack(),
+            packet_stack: packet::new_packet_stack(),
+            wide_packet_stack: packet::new_packet_stack(),
             nodes: 0,
             prims: 0,
         };
-        // Two batch slots at a time: when all their rays that may hit
-        // point into one octant, they walk the tree as one wide packet.
+        // Two batch slots at a time: with wide packets enabled, when both
+        // have rays that may hit and all of those point into one octant,
+        // they walk the tree as one sixteen-ray packet.
         for start in (0..n).step_by(packet::MAX_RAYS) {
             // Rays that miss the scene's bounds skip traversal altogether
             // (counted as one node visit: the box test they did get).
             let first = self.cull(&scene, &src, start);
             let second = (start + WIDTH < n).then(|| self.cull(&scene, &src, start + WIDTH));
-            if let (true, Some(scene), None, (Some(c0), m0), Some((Some(c1), m1))) =
-                (WIDE_PACKETS, &scene, &batch.cost, &first, &second)
+            if WIDE_PACKETS
+                && let (Some(scene), None, (Some(c0), m0), Some((Some(c1), m1))) =
+                    (&scene, &batch.cost, &first, &second)
                 && *m0 != 0
                 && *m1 != 0
                 && let Some((packet, active)) =
                     packet::Packet::<wide::f32x16>::new(&src, start, &[c0, c1])
             {
-                let candidates = m0 | m1 << WIDTH;
-                let mut stack = std::mem::take(&mut batch.wide_packets);
-                batch.trace_packet(scene, &mut stack, &packet, active, start, candidates);
-                batch.wide_packets = stack;
+                let mut stack = std::mem::take(&mut batch.wide_packet_stack);
+                batch.trace_packet(scene, &mut stack, &packet, active, start);
+                batch.wide_packet_stack = stack;
                 continue;
             }
-            batch.slot(&scene, &src, start, first);
+            batch.trace_slot(&scene, &src, start, first);
             if let Some(second) = second {
-                batch.slot(&scene, &src, start + WIDTH, second);
+                batch.trace_slot(&scene, &src, start + WIDTH, second);
             }
         }
         stats.rays += n as u64;
@@ -485,7 +486,8 @@ impl Bvh {
     }
 }
 
-/// Node visits of one packet's or bundle's batch slot of `lanes` rays,
+/// Node visits of the `lanes` rays of one packet (one or two batch slots)
+/// or bundle,
 /// counted as the single-ray path counts them: the visits summed over its
 /// rays, plus one (the scene box) per ray the batch cull rejected; rays
 /// that passed the cull but cannot hit anything count none.
@@ -502,19 +504,19 @@ struct ClosestBatch<'a> {
     hits: &'a mut Hits,
     cost: Option<&'a mut [u32]>,
     stack: traverse::Stack,
-    packets: packet::PacketStack<Lanes>,
-    wide_packets: packet::PacketStack<wide::f32x16>,
+    packet_stack: packet::PacketStack<Lanes>,
+    wide_packet_stack: packet::PacketStack<wide::f32x16>,
     nodes: u64,
     prims: u64,
 }
 
 impl ClosestBatch<'_> {
-    /// Traces the rays of the batch slot at `start`, whose cull (with a
-    /// hierarchy) and lanes to trace are `cull`: as a packet when that
-    /// pays (no per-ray costs asked for, two or more rays, one octant),
-    /// else ray by ray.
+    /// Traces the rays of the batch slot at `start`, given the slot's
+    /// batch cull (with a hierarchy) and lanes to trace: nothing when no
+    /// lane may hit, as a packet when that pays (no per-ray costs asked
+    /// for, two or more rays, one octant), else ray by ray.
     #[inline(always)]
-    fn slot(
+    fn trace_slot(
         &mut self,
         scene: &Option<traverse::Scene>,
         src: &traverse::Ray8Src,
@@ -534,11 +536,12 @@ impl ClosestBatch<'_> {
         }
         if let (Some(scene), None, Some(c)) = (scene, &self.cost, &cull)
             && c.mask.count_ones() >= 2
+            // (One slot: the second cull is only a placeholder.)
             && let Some((packet, active)) = packet::Packet::<Lanes>::new(src, start, &[c, c])
         {
-            let mut stack = std::mem::take(&mut self.packets);
-            self.trace_packet(scene, &mut stack, &packet, active, start, candidates);
-            self.packets = stack;
+            let mut stack = std::mem::take(&mut self.packet_stack);
+            self.trace_packet(scene, &mut stack, &packet, active, start);
+            self.packet_stack = stack;
             return;
         }
         for i in start..end {
@@ -574,8 +577,8 @@ impl ClosestBatch<'_> {
         }
     }
 
-    /// Traces `packet` (the rays `active` of the `L::SLOTS` batch slots
-    /// from `start`, of which the culls let `candidates` through).
+    /// Traces `packet`: the rays `active` of the `L::SLOTS` batch slots
+    /// from `start`, which are the rays their culls let through.
     #[inline(always)]
     fn trace_packet<L: packet::RayLanes>(
         &mut self,
@@ -584,7 +587,6 @@ impl ClosestBatch<'_> {
         packet: &packet::Packet<L>,
         active: u32,
         start: usize,
-        candidates: u32,
     ) {
         let end = (start + L::SLOTS * WIDTH).min(self.rays.len());
         let mut best = [traverse::Closest::none(0.0); packet::MAX_RAYS];
@@ -605,7 +607,7 @@ impl ClosestBatch<'_> {
         for (i, c) in (start..end).zip(&best) {
             self.record(i, c);
         }
-        self.nodes += slot_nodes(visits, candidates, end - start);
+        self.nodes += slot_nodes(visits, active, end - start);
         self.prims += work.iter().map(|w| w.prims as u64).sum::<u64>();
     }
 

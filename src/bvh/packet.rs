@@ -26,7 +26,8 @@
 //!
 //! Packets are used only when all their rays point into the same octant,
 //! so one choice of near and far planes per axis serves every lane (the
-//! caller falls back to single rays otherwise, and for the per-ray cost
+//! caller falls back to one-slot packets when two slots disagree, to single
+//! rays when one slot's rays do, and to single rays for the per-ray cost
 //! counters of `--shading bvh-cost`).
 
 use std::ops::{Add, Mul, Sub};
@@ -46,8 +47,11 @@ pub(crate) const MAX_RAYS: usize = MAX_SLOTS * WIDTH;
 
 /// A SIMD register with one lane per ray of a packet: [`Lanes`] for the
 /// rays of one batch slot, `wide::f32x16` for two (one AVX-512 register
-/// on this project's target). Every operation is the lane-wise IEEE one,
-/// so a ray's lane computes the same bits in either.
+/// on this project's target). Every operation works lane by lane the same
+/// way in both, so a ray's lane computes the same bits in either: the
+/// arithmetic is IEEE, and `fast_max`/`fast_min` are the x86 `maxps`/
+/// `minps` (a NaN in either operand gives the second one), on which the
+/// slab test's treatment of NaN relies.
 pub(crate) trait RayLanes:
     Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self>
 {
@@ -167,6 +171,8 @@ impl<L: RayLanes> Packet<L> {
     #[inline(always)]
     pub fn new(rays: &Ray8Src, start: usize, culls: &[&Cull; MAX_SLOTS]) -> Option<(Self, u32)> {
         let slots = &culls[..L::SLOTS];
+        // (The culls of slots past `L::SLOTS` are read by the lane
+        // assembly below but dropped by `from_slots`.)
         let active = slots
             .iter()
             .enumerate()
@@ -198,6 +204,7 @@ impl<L: RayLanes> Packet<L> {
             tri[s] = cull.packet_tri(cull.mask, &o, org_slot);
             o_slots[s] = o;
         }
+        debug_assert!(active != 0, "a packet has at least one ray");
         let packet = Packet {
             o: [0, 1, 2].map(|axis| L::from_slots(o_slots.map(|o| o[axis]))),
             inv: [0, 1, 2].map(|axis| L::from_slots(culls.map(|c| c.inv()[axis]))),

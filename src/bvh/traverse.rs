@@ -1,4 +1,6 @@
-//! Single-ray traversal of the wide BVH, applied ray by ray over a batch.
+//! Single-ray traversal of the wide BVH, applied ray by ray over a batch,
+//! and what every traversal shares: the batch cull, the slab test and the
+//! leaf tests (including a packet's, one batch slot at a time).
 //!
 //! Each ray walks the tree with a small fixed-size stack that lives for the
 //! whole batch (no allocation per ray). At every wide node all children's
@@ -26,7 +28,7 @@
 //! plane, where `0·∞ = NaN`. Such a ray runs inside the box's face, and the
 //! face counts as part of the box (brute force would report a hit on a
 //! triangle edge lying there), so NaN must mean "no constraint". The
-//! running `max`/`min` are written as `candidate.max(running)`, which maps
+//! running `max`/`min` are written as `candidate.fast_max(running)`, which maps
 //! to `maxps`: when either operand is NaN it returns the second, so a NaN
 //! candidate is simply ignored.
 
@@ -156,7 +158,8 @@ pub(crate) struct Cull {
     slack: [f32; WIDTH],
     /// Lanes whose direction is negative (1/d < 0, including −0), per axis.
     negative: [u32; 3],
-    /// The triangle test's per-ray setup.
+    /// The triangle test's per-ray setup (a placeholder when `mask` is 0:
+    /// no ray of the slot is traced).
     tri: RayTriLanes,
 }
 
@@ -422,13 +425,13 @@ impl Scene<'_> {
         }
     }
 
-    /// Tests the rays `rays` of a packet against the primitives of the
-    /// triangle leaf `leaf`, narrowing each ray's `best`. `shared` is the
-    /// packet's triangle-test setup if its rays share one permutation,
-    /// `single` each ray's own. A group is tested triangle by triangle
-    /// against all rays at once when there are more rays than triangles
-    /// (lanes = rays), else ray by ray (lanes = triangles); each (ray,
-    /// triangle) pair computes the same values either way.
+    /// Tests the rays `rays` of one batch slot of a packet against the
+    /// triangle leaf `leaf`, narrowing each ray's `best`; `tri` is their
+    /// triangle-test setup. When the rays share one permutation
+    /// ([`PacketTri::Shared`]) and outnumber a group's triangles, the group
+    /// is tested triangle by triangle against all rays at once (lanes =
+    /// rays), else ray by ray (lanes = triangles); each (ray, triangle)
+    /// pair computes the same values either way.
     #[inline(never)]
     pub fn leaf_closest_packet(
         &self,

@@ -1,4 +1,5 @@
-//! Watertight ray/triangle intersection, [`TRI_WIDTH`] triangles at a time.
+//! Watertight ray/triangle intersection, [`TRI_WIDTH`] triangles against
+//! one ray or one triangle against [`WIDTH`] rays at a time.
 //!
 //! This is the algorithm of Woop, Benthin and Wald, "Watertight Ray/Triangle
 //! Intersection" (JCGT 2013). The ray is turned into the +z axis of a sheared
@@ -33,8 +34,9 @@ use crate::scene::Triangles;
 use super::{Lanes, TRI_WIDTH, TriLanes, WIDTH};
 use crate::ray::NO_HIT;
 
-/// [`TRI_WIDTH`] triangles, structure of arrays. Unused lanes have NaN vertices
-/// (every comparison fails, so they never hit) and id [`NO_HIT`].
+/// [`TRI_WIDTH`] triangles, structure of arrays: the real ones in lanes
+/// `0..len()`, then padding lanes with NaN vertices (every comparison
+/// fails, so they never hit) and id [`NO_HIT`].
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
 pub(crate) struct TriGroup {
@@ -178,6 +180,7 @@ impl RayTriLanes {
     /// the same sign along it, as coherent rays mostly do.
     #[inline(always)]
     pub fn packet(&self, active: u32, o: &[Lanes; 3]) -> Option<RayTriPacket> {
+        debug_assert!(active != 0, "a packet has at least one ray");
         let uniform = |mask: u32| mask & active == 0 || mask & active == active;
         if !(uniform(self.major_x) && uniform(self.major_y) && uniform(self.flip)) {
             return None;
