@@ -67,64 +67,47 @@ pub(crate) trait RayLanes:
     fn bitmask(self) -> u32;
 }
 
-impl RayLanes for Lanes {
-    const SLOTS: usize = 1;
-    #[inline(always)]
-    fn splat(x: f32) -> Self {
-        Lanes::splat(x)
-    }
-    #[inline(always)]
-    fn from_slots(slots: [Lanes; MAX_SLOTS]) -> Self {
-        slots[0]
-    }
-    #[inline(always)]
-    fn fast_max(self, other: Self) -> Self {
-        Lanes::fast_max(self, other)
-    }
-    #[inline(always)]
-    fn fast_min(self, other: Self) -> Self {
-        Lanes::fast_min(self, other)
-    }
-    #[inline(always)]
-    fn le(self, other: Self) -> Self {
-        self.simd_le(other)
-    }
-    #[inline(always)]
-    fn bitmask(self) -> u32 {
-        self.to_bitmask()
-    }
+/// Implements [`RayLanes`] for `$t` (`$slots` batch slots, assembled from
+/// the slots' registers by `$from`) by forwarding to `wide`'s methods.
+macro_rules! ray_lanes {
+    ($t:ty, $slots:expr, |$s:pat_param| $from:expr) => {
+        impl RayLanes for $t {
+            const SLOTS: usize = $slots;
+            #[inline(always)]
+            fn splat(x: f32) -> Self {
+                <$t>::splat(x)
+            }
+            #[inline(always)]
+            fn from_slots($s: [Lanes; MAX_SLOTS]) -> Self {
+                $from
+            }
+            #[inline(always)]
+            fn fast_max(self, other: Self) -> Self {
+                <$t>::fast_max(self, other)
+            }
+            #[inline(always)]
+            fn fast_min(self, other: Self) -> Self {
+                <$t>::fast_min(self, other)
+            }
+            #[inline(always)]
+            fn le(self, other: Self) -> Self {
+                self.simd_le(other)
+            }
+            #[inline(always)]
+            fn bitmask(self) -> u32 {
+                self.to_bitmask()
+            }
+        }
+    };
 }
 
-impl RayLanes for wide::f32x16 {
-    const SLOTS: usize = 2;
-    #[inline(always)]
-    fn splat(x: f32) -> Self {
-        wide::f32x16::splat(x)
-    }
-    #[inline(always)]
-    fn from_slots([a, b]: [Lanes; MAX_SLOTS]) -> Self {
-        let (a, b) = (a.to_array(), b.to_array());
-        wide::f32x16::from(std::array::from_fn::<f32, 16, _>(|i| {
-            if i < WIDTH { a[i] } else { b[i - WIDTH] }
-        }))
-    }
-    #[inline(always)]
-    fn fast_max(self, other: Self) -> Self {
-        wide::f32x16::fast_max(self, other)
-    }
-    #[inline(always)]
-    fn fast_min(self, other: Self) -> Self {
-        wide::f32x16::fast_min(self, other)
-    }
-    #[inline(always)]
-    fn le(self, other: Self) -> Self {
-        self.simd_le(other)
-    }
-    #[inline(always)]
-    fn bitmask(self) -> u32 {
-        self.to_bitmask()
-    }
-}
+ray_lanes!(Lanes, 1, |slots| slots[0]);
+ray_lanes!(wide::f32x16, 2, |[a, b]| {
+    let (a, b) = (a.to_array(), b.to_array());
+    wide::f32x16::from(std::array::from_fn::<f32, 16, _>(|i| {
+        if i < WIDTH { a[i] } else { b[i - WIDTH] }
+    }))
+});
 
 /// Stack entry: a child, the rays that entered it and where they did.
 #[derive(Clone, Copy)]
