@@ -319,31 +319,42 @@ impl Bvh {
             nodes: 0,
             prims: 0,
         };
-        // Two batch slots at a time: with wide packets enabled, when both
-        // have rays that may hit and all of those point into one octant,
-        // they walk the tree as one sixteen-ray packet.
-        for start in (0..n).step_by(packet::MAX_RAYS) {
+        // Slot by slot; with wide packets enabled, when a slot and the next
+        // both have rays that may hit and all of those point into one
+        // octant, the two walk the tree as one sixteen-ray packet. (The
+        // next slot's cull is carried over otherwise, so that the slot
+        // code below has one call site: inlined twice, it measured ~3%
+        // more instructions on incoherent rays.)
+        let mut carried = None;
+        let mut start = 0;
+        while start < n {
             // Rays that miss the scene's bounds skip traversal altogether
             // (counted as one node visit: the box test they did get).
-            let first = self.cull(&scene, &src, start);
-            let second = (start + WIDTH < n).then(|| self.cull(&scene, &src, start + WIDTH));
+            let first = carried
+                .take()
+                .unwrap_or_else(|| self.cull(&scene, &src, start));
+            let next = start + WIDTH;
             if WIDE_PACKETS
-                && let (Some(scene), None, (Some(c0), m0), Some((Some(c1), m1))) =
-                    (&scene, &batch.cost, &first, &second)
-                && *m0 != 0
-                && *m1 != 0
-                && let Some((packet, active)) =
-                    packet::Packet::<wide::f32x16>::new(&src, start, &[c0, c1])
+                && next < n
+                && first.1 != 0
+                && let (Some(hierarchy), None, Some(c0)) = (&scene, &batch.cost, &first.0)
             {
-                let mut stack = std::mem::take(&mut batch.wide_packet_stack);
-                batch.trace_packet(scene, &mut stack, &packet, active, start);
-                batch.wide_packet_stack = stack;
-                continue;
+                let second = self.cull(&scene, &src, next);
+                if second.1 != 0
+                    && let Some(c1) = &second.0
+                    && let Some((packet, active)) =
+                        packet::Packet::<wide::f32x16>::new(&src, start, &[c0, c1])
+                {
+                    let mut stack = std::mem::take(&mut batch.wide_packet_stack);
+                    batch.trace_packet(hierarchy, &mut stack, &packet, active, start);
+                    batch.wide_packet_stack = stack;
+                    start = next + WIDTH;
+                    continue;
+                }
+                carried = Some(second);
             }
             batch.trace_slot(&scene, &src, start, first);
-            if let Some(second) = second {
-                batch.trace_slot(&scene, &src, start + WIDTH, second);
-            }
+            start = next;
         }
         stats.rays += n as u64;
         stats.nodes_visited += batch.nodes;
@@ -544,6 +555,9 @@ impl ClosestBatch<'_> {
             self.packet_stack = stack;
             return;
         }
+        // Locals, not fields: the loop then keeps them in registers.
+        let (stack, hits) = (&mut self.stack, &mut *self.hits);
+        let (mut nodes, mut prims) = (0, 0);
         for i in start..end {
             let mut work = traverse::Work::default();
             if candidates & (1 << (i - start)) == 0 {
@@ -551,13 +565,9 @@ impl ClosestBatch<'_> {
             } else {
                 let (o, d, t_max) = (rays.origin(i), rays.direction(i), rays.t_max[i]);
                 let c = match (scene, &cull) {
-                    (Some(scene), Some(cull)) => traverse::closest(
-                        scene,
-                        &mut self.stack,
-                        (cull, i - start),
-                        (o, d, t_max),
-                        &mut work,
-                    ),
+                    (Some(scene), Some(cull)) => {
+                        traverse::closest(scene, stack, (cull, i - start), (o, d, t_max), &mut work)
+                    }
                     _ => traverse::closest_brute(
                         &self.bvh.tri_groups,
                         &self.bvh.spheres,
@@ -567,14 +577,16 @@ impl ClosestBatch<'_> {
                         &mut work,
                     ),
                 };
-                self.record(i, &c);
+                hits.record(i, &c);
             }
             if let Some(cost) = self.cost.as_deref_mut() {
                 cost[i] = work.nodes + work.prims;
             }
-            self.nodes += work.nodes as u64;
-            self.prims += work.prims as u64;
+            nodes += work.nodes as u64;
+            prims += work.prims as u64;
         }
+        self.nodes += nodes;
+        self.prims += prims;
     }
 
     /// Traces `packet`: the rays `active` of the `L::SLOTS` batch slots
@@ -605,20 +617,22 @@ impl ClosestBatch<'_> {
             &mut visits,
         );
         for (i, c) in (start..end).zip(&best) {
-            self.record(i, c);
+            self.hits.record(i, c);
         }
         self.nodes += slot_nodes(visits, active, end - start);
         self.prims += work.iter().map(|w| w.prims as u64).sum::<u64>();
     }
+}
 
+impl Hits {
     /// Stores ray `i`'s closest hit, if any.
     #[inline(always)]
     fn record(&mut self, i: usize, c: &traverse::Closest) {
         if c.prim != crate::ray::NO_HIT {
-            self.hits.t[i] = c.t;
-            self.hits.prim[i] = c.prim;
-            self.hits.u[i] = c.u;
-            self.hits.v[i] = c.v;
+            self.t[i] = c.t;
+            self.prim[i] = c.prim;
+            self.u[i] = c.u;
+            self.v[i] = c.v;
         }
     }
 }
