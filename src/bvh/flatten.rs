@@ -133,11 +133,11 @@ pub(crate) fn flatten(root: Option<&BuildNode>, order: &[u32], geometry: &Geomet
     };
     // The root is always an interior wide node, even for a single leaf, so
     // traversal can start with a box test unconditionally.
-    let slots: Vec<&BuildNode> = match root {
+    let (slots, n) = match root {
         BuildNode::Inner { .. } => collapse_children(root),
-        BuildNode::Leaf { .. } => vec![root],
+        BuildNode::Leaf { .. } => ([root; WIDTH], 1),
     };
-    let depth = ctx.emit_node(&slots);
+    let depth = ctx.emit_node(&slots[..n]);
     flat.root = Some(ChildRef::node(0));
     flat.depth = depth;
     flat
@@ -153,32 +153,39 @@ struct Ctx<'a> {
 }
 
 /// Gathers up to [`WIDTH`] descendants of interior node `node` by repeatedly
-/// opening the interior child with the largest surface area.
-fn collapse_children(node: &BuildNode) -> Vec<&BuildNode> {
+/// opening the interior child with the largest surface area: the first
+/// `n` entries of the returned array (no allocation: this runs once per
+/// wide node).
+fn collapse_children(node: &BuildNode) -> ([&BuildNode; WIDTH], usize) {
     let BuildNode::Inner { children, .. } = node else {
         unreachable!("collapse_children on a leaf")
     };
-    let mut slots: Vec<&BuildNode> = vec![&children[0], &children[1]];
+    let mut slots = [&children[0]; WIDTH];
+    slots[1] = &children[1];
+    let mut n = 2;
     // Joins of the build's isolated parts first (each part gets a slot),
     // then by area.
     let key = |n: &BuildNode| match n {
         BuildNode::Inner { joins_parts, .. } => Some((*joins_parts, n.bounds().surface_area())),
         BuildNode::Leaf { .. } => None,
     };
-    while slots.len() < WIDTH {
-        let best = slots
+    while n < WIDTH {
+        let best = slots[..n]
             .iter()
             .enumerate()
             .filter_map(|(i, n)| key(n).map(|k| (i, k)))
             .max_by(|a, b| a.1.0.cmp(&b.1.0).then(a.1.1.total_cmp(&b.1.1)));
         let Some((i, _)) = best else { break };
-        let BuildNode::Inner { children, .. } = slots.swap_remove(i) else {
+        let BuildNode::Inner { children, .. } = slots[i] else {
             unreachable!()
         };
-        slots.push(&children[0]);
-        slots.push(&children[1]);
+        // Remove slot `i` (the last takes its place), append its children.
+        slots[i] = slots[n - 1];
+        slots[n - 1] = &children[0];
+        slots[n] = &children[1];
+        n += 1;
     }
-    slots
+    (slots, n)
 }
 
 impl Ctx<'_> {
@@ -201,24 +208,22 @@ impl Ctx<'_> {
         // arrays of their own, appended (with their references shifted)
         // when their slot comes.
         let mut parallel: [Option<Flat>; WIDTH] = Default::default();
-        {
+        let is_big =
+            |n: &BuildNode| matches!(n, BuildNode::Inner { .. }) && n.count() > PARALLEL_FLATTEN;
+        if slots.iter().filter(|n| is_big(n)).count() > 1 {
             use rayon::prelude::*;
             let big: Vec<(usize, &BuildNode)> = slots
                 .iter()
                 .enumerate()
-                .filter(|(_, n)| {
-                    matches!(n, BuildNode::Inner { .. }) && n.count() > PARALLEL_FLATTEN
-                })
+                .filter(|(_, n)| is_big(n))
                 .map(|(i, n)| (i, *n))
                 .collect();
-            if big.len() > 1 {
-                let done: Vec<(usize, Flat)> = big
-                    .into_par_iter()
-                    .map(|(i, n)| (i, flatten(Some(n), self.order, self.geometry)))
-                    .collect();
-                for (i, f) in done {
-                    parallel[i] = Some(f);
-                }
+            let done: Vec<(usize, Flat)> = big
+                .into_par_iter()
+                .map(|(i, n)| (i, flatten(Some(n), self.order, self.geometry)))
+                .collect();
+            for (i, f) in done {
+                parallel[i] = Some(f);
             }
         }
         for (slot, node) in slots.iter().enumerate() {
@@ -238,7 +243,8 @@ impl Ctx<'_> {
                 }
                 BuildNode::Inner { .. } => {
                     let c = ChildRef::node(self.flat.nodes.len() as u32);
-                    depth = depth.max(1 + self.emit_node(&collapse_children(node)));
+                    let (slots, n) = collapse_children(node);
+                    depth = depth.max(1 + self.emit_node(&slots[..n]));
                     c
                 }
             };
