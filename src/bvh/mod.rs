@@ -547,8 +547,7 @@ impl ClosestBatch<'_> {
         }
         if let (Some(scene), None, Some(c)) = (scene, &self.cost, &cull)
             && c.mask.count_ones() >= 2
-            // (One slot: the second cull is only a placeholder.)
-            && let Some((packet, active)) = packet::Packet::<Lanes>::new(src, start, &[c, c])
+            && let Some((packet, active)) = packet::Packet::<Lanes>::new(src, start, &[c])
         {
             let mut stack = std::mem::take(&mut self.packet_stack);
             self.trace_packet(scene, &mut stack, &packet, active, start);

@@ -58,8 +58,9 @@ pub(crate) trait RayLanes:
     /// Batch slots per register.
     const SLOTS: usize;
     fn splat(x: f32) -> Self;
-    /// The registers of consecutive slots side by side.
-    fn from_slots(slots: [Lanes; MAX_SLOTS]) -> Self;
+    /// The registers `slot(0)`, `slot(1)`, … of consecutive batch slots
+    /// side by side (only as many as the register holds are asked for).
+    fn from_slots(slot: impl Fn(usize) -> Lanes) -> Self;
     fn fast_max(self, other: Self) -> Self;
     fn fast_min(self, other: Self) -> Self;
     /// All-ones lanes where `self <= other`.
@@ -68,9 +69,10 @@ pub(crate) trait RayLanes:
 }
 
 /// Implements [`RayLanes`] for `$t` (`$slots` batch slots, assembled from
-/// the slots' registers by `$from`) by forwarding to `wide`'s methods.
+/// the slots' registers `$s(0)`, … by `$from`) by forwarding to `wide`'s
+/// methods.
 macro_rules! ray_lanes {
-    ($t:ty, $slots:expr, |$s:pat_param| $from:expr) => {
+    ($t:ty, $slots:expr, |$s:ident| $from:expr) => {
         impl RayLanes for $t {
             const SLOTS: usize = $slots;
             #[inline(always)]
@@ -78,7 +80,7 @@ macro_rules! ray_lanes {
                 <$t>::splat(x)
             }
             #[inline(always)]
-            fn from_slots($s: [Lanes; MAX_SLOTS]) -> Self {
+            fn from_slots($s: impl Fn(usize) -> Lanes) -> Self {
                 $from
             }
             #[inline(always)]
@@ -101,9 +103,9 @@ macro_rules! ray_lanes {
     };
 }
 
-ray_lanes!(Lanes, 1, |slots| slots[0]);
-ray_lanes!(wide::f32x16, 2, |[a, b]| {
-    let (a, b) = (a.to_array(), b.to_array());
+ray_lanes!(Lanes, 1, |slot| slot(0));
+ray_lanes!(wide::f32x16, 2, |slot| {
+    let (a, b) = (slot(0).to_array(), slot(1).to_array());
     wide::f32x16::from(std::array::from_fn::<f32, 16, _>(|i| {
         if i < WIDTH { a[i] } else { b[i - WIDTH] }
     }))
@@ -146,16 +148,14 @@ pub(crate) struct Packet<L> {
 
 impl<L: RayLanes> Packet<L> {
     /// Gathers the rays of the `L::SLOTS` batch slots from `start` that
-    /// their batch culls (`culls`, one per slot) let through into a
+    /// their batch culls (`slots`, one per slot) let through into a
     /// packet, with the mask of those rays (slot `s` in bits `8s..`), or
     /// `None` if their directions do not all lie in one octant. The culls'
     /// reciprocal directions and slacks are the packet's, so packet and
     /// single-ray box decisions agree exactly.
     #[inline(always)]
-    pub fn new(rays: &Ray8Src, start: usize, culls: &[&Cull; MAX_SLOTS]) -> Option<(Self, u32)> {
-        let slots = &culls[..L::SLOTS];
-        // (The culls of slots past `L::SLOTS` are read by the lane
-        // assembly below but dropped by `from_slots`.)
+    pub fn new(rays: &Ray8Src, start: usize, slots: &[&Cull]) -> Option<(Self, u32)> {
+        debug_assert_eq!(slots.len(), L::SLOTS);
         let active = slots
             .iter()
             .enumerate()
@@ -189,10 +189,10 @@ impl<L: RayLanes> Packet<L> {
         }
         debug_assert!(active != 0, "a packet has at least one ray");
         let packet = Packet {
-            o: [0, 1, 2].map(|axis| L::from_slots(o_slots.map(|o| o[axis]))),
-            inv: [0, 1, 2].map(|axis| L::from_slots(culls.map(|c| c.inv()[axis]))),
+            o: [0, 1, 2].map(|axis| L::from_slots(|s| o_slots[s][axis])),
+            inv: [0, 1, 2].map(|axis| L::from_slots(|s| slots[s].inv()[axis])),
             near,
-            slack: L::from_slots(culls.map(|c| c.slack())),
+            slack: L::from_slots(|s| slots[s].slack()),
             org,
             dir,
             lead: dir[active.trailing_zeros() as usize],
@@ -227,11 +227,11 @@ impl<L: RayLanes> Packet<L> {
     /// The far ends of the packet's rays: each one's nearest hit so far.
     #[inline(always)]
     fn t_best(best: &[Closest; MAX_RAYS]) -> L {
-        L::from_slots(std::array::from_fn(|s| {
+        L::from_slots(|s| {
             Lanes::from(std::array::from_fn::<f32, WIDTH, _>(|l| {
                 best[WIDTH * s + l].t
             }))
-        }))
+        })
     }
 }
 
