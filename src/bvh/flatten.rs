@@ -36,10 +36,12 @@ use crate::scene::{Aabb, Geometry};
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(crate) struct WideNode {
-    /// `bounds[0]` = minimum corner, `bounds[1]` = maximum corner, one
-    /// register per axis. Empty slots hold an inverted (+∞, −∞) box, which
+    /// `bounds[axis][0]` = minimum plane, `bounds[axis][1]` = maximum
+    /// plane, one register each. Axis-major, so that a ray's near and far
+    /// planes along an axis are 32 bytes apart and the slab test's plane
+    /// choice is one offset per axis. Empty slots hold an inverted (+∞, −∞) box, which
     /// the slab test never hits, so traversal needs no occupancy mask.
-    pub bounds: [[Lanes; 3]; 2],
+    pub bounds: [[Lanes; 2]; 3],
     pub child: [ChildRef; WIDTH],
 }
 
@@ -194,10 +196,7 @@ impl Ctx<'_> {
     fn emit_node(&mut self, slots: &[&BuildNode]) -> usize {
         let index = self.flat.nodes.len();
         self.flat.nodes.push(WideNode {
-            bounds: [
-                [Lanes::splat(f32::INFINITY); 3],
-                [Lanes::splat(f32::NEG_INFINITY); 3],
-            ],
+            bounds: [[Lanes::splat(f32::INFINITY), Lanes::splat(f32::NEG_INFINITY)]; 3],
             child: [ChildRef::EMPTY; WIDTH],
         });
         let mut lo = [[f32::INFINITY; WIDTH]; 3];
@@ -250,7 +249,7 @@ impl Ctx<'_> {
             };
         }
         let n = &mut self.flat.nodes[index];
-        n.bounds = [lo.map(Lanes::from), hi.map(Lanes::from)];
+        n.bounds = [0, 1, 2].map(|a| [Lanes::from(lo[a]), Lanes::from(hi[a])]);
         n.child = child;
         depth
     }
@@ -262,8 +261,7 @@ impl Ctx<'_> {
         let group_base = self.flat.tri_groups.len() as u32;
         let sphere_base = self.flat.spheres.len() as u32;
         self.flat.nodes.extend(sub.nodes.into_iter().map(|mut n| {
-            let lo_x = n.bounds[0][0].to_array();
-            let hi_x = n.bounds[1][0].to_array();
+            let [lo_x, hi_x] = n.bounds[0].map(Lanes::to_array);
             for (slot, c) in n.child.iter_mut().enumerate() {
                 if lo_x[slot] > hi_x[slot] {
                     continue; // empty slot
@@ -320,17 +318,9 @@ pub(crate) fn pack_triangles(prims: &[u32], geometry: &Geometry) -> Vec<TriGroup
 /// Bounds of a wide node's slot, for tests and statistics.
 #[allow(dead_code)]
 pub(crate) fn slot_bounds(node: &WideNode, slot: usize) -> Aabb {
-    let [lo, hi] = &node.bounds;
+    let corner = |side: usize| Vec3::from(node.bounds.map(|b| b[side].as_array()[slot]));
     Aabb {
-        min: Vec3::new(
-            lo[0].to_array()[slot],
-            lo[1].to_array()[slot],
-            lo[2].to_array()[slot],
-        ),
-        max: Vec3::new(
-            hi[0].to_array()[slot],
-            hi[1].to_array()[slot],
-            hi[2].to_array()[slot],
-        ),
+        min: corner(0),
+        max: corner(1),
     }
 }

@@ -213,7 +213,7 @@ impl<L: RayLanes> Packet<L> {
     fn test(&self, node: &WideNode, slot: usize, cull: L, mask: u32) -> (u32, L) {
         let b = &node.bounds;
         let n = self.near;
-        let plane = |corner: usize, axis: usize| L::splat(b[corner][axis].as_array()[slot]);
+        let plane = |side: usize, axis: usize| L::splat(b[axis][side].as_array()[slot]);
         let (m, t_enter) = slab_test(
             [0, 1, 2].map(|a| plane(n[a], a)),
             [0, 1, 2].map(|a| plane(1 - n[a], a)),
@@ -257,9 +257,10 @@ fn descend<L: RayLanes>(
     let mut slots = occupied(node);
     // Order key: the box centre (doubled) along the leading direction.
     let l = packet.lead;
-    let key = (node.bounds[0][0] + node.bounds[1][0]) * Lanes::splat(l.x)
-        + (node.bounds[0][1] + node.bounds[1][1]) * Lanes::splat(l.y)
-        + (node.bounds[0][2] + node.bounds[1][2]) * Lanes::splat(l.z);
+    let [x, y, z] = &node.bounds;
+    let key = (x[0] + x[1]) * Lanes::splat(l.x)
+        + (y[0] + y[1]) * Lanes::splat(l.y)
+        + (z[0] + z[1]) * Lanes::splat(l.z);
     let key = key.as_array();
     let mut masks = [0u32; WIDTH];
     let mut t_enter = [L::splat(0.0); WIDTH];

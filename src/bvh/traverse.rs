@@ -110,8 +110,8 @@ impl RayBox {
         // six bounds checks per node.
         let (n, f) = (self.near.map(|n| n & 1), self.near.map(|n| (n ^ 1) & 1));
         slab_test(
-            [b[n[0]][0], b[n[1]][1], b[n[2]][2]],
-            [b[f[0]][0], b[f[1]][1], b[f[2]][2]],
+            [b[0][n[0]], b[1][n[1]], b[2][n[2]]],
+            [b[0][f[0]], b[1][f[1]], b[2][f[2]]],
             &self.o,
             &self.inv,
             Lanes::splat(self.cull(t_far)),
@@ -615,30 +615,39 @@ pub(crate) fn closest(
     let rb = cull.ray_box(lane, o);
     let tri = cull.ray_tri(lane, o);
     let mut sp = 0usize;
+    // Pops the next child that is not farther than the nearest hit so far.
+    let pop = |stack: &Stack, sp: &mut usize, t_best: f32| {
+        while *sp > 0 {
+            *sp -= 1;
+            let e = stack[*sp];
+            if e.t <= rb.cull(t_best) {
+                return Some(ChildRef(e.child));
+            }
+        }
+        None
+    };
     let mut current = scene.root;
     loop {
-        if !current.is_leaf() {
+        // Inner nodes in a loop of their own ("while-while", Aila and
+        // Laine 2009), apart from the leaf test: it measured ~1% fewer
+        // instructions on incoherent rays.
+        while !current.is_leaf() {
             let node = &scene.nodes[current.index()];
             work.nodes += 1;
             let (mask, t_enter) = rb.test(node, best.t);
-            if mask != 0 {
-                current = push_children(node, mask, t_enter, stack, &mut sp);
-                continue;
-            }
-        } else {
-            scene.leaf_closest(current, (o, d), &tri, &mut best, work);
+            current = if mask != 0 {
+                push_children(node, mask, t_enter, stack, &mut sp)
+            } else {
+                match pop(stack, &mut sp, best.t) {
+                    Some(c) => c,
+                    None => return best,
+                }
+            };
         }
-        // Pop the next child that is not farther than the nearest hit so far.
-        loop {
-            if sp == 0 {
-                return best;
-            }
-            sp -= 1;
-            let e = stack[sp];
-            if e.t <= rb.cull(best.t) {
-                current = ChildRef(e.child);
-                break;
-            }
+        scene.leaf_closest(current, (o, d), &tri, &mut best, work);
+        match pop(stack, &mut sp, best.t) {
+            Some(c) => current = c,
+            None => return best,
         }
     }
 }
