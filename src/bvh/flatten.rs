@@ -38,9 +38,10 @@ use crate::scene::{Aabb, Geometry};
 pub(crate) struct WideNode {
     /// `bounds[axis][0]` = minimum plane, `bounds[axis][1]` = maximum
     /// plane, one register each. Axis-major, so that a ray's near and far
-    /// planes along an axis are 32 bytes apart and the slab test's plane
-    /// choice is one offset per axis. Empty slots hold an inverted (+∞, −∞) box, which
-    /// the slab test never hits, so traversal needs no occupancy mask.
+    /// planes along an axis are 32 bytes apart (the single-ray test's
+    /// plane addresses take one shift each; PERF.md). Empty slots hold an
+    /// inverted (+∞, −∞) box, which the slab test never hits, so
+    /// traversal needs no occupancy mask.
     pub bounds: [[Lanes; 2]; 3],
     pub child: [ChildRef; WIDTH],
 }
