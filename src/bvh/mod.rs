@@ -498,10 +498,9 @@ impl Bvh {
 }
 
 /// Node visits of the `lanes` rays of one packet (one or two batch slots)
-/// or bundle,
-/// counted as the single-ray path counts them: the visits summed over its
-/// rays, plus one (the scene box) per ray the batch cull rejected; rays
-/// that passed the cull but cannot hit anything count none.
+/// or bundle, counted as the single-ray path counts them: the visits
+/// summed over its rays, plus one (the scene box) per ray the batch cull
+/// rejected; rays that passed the cull but cannot hit anything count none.
 fn slot_nodes(visits: u64, candidates: u32, lanes: usize) -> u64 {
     let in_slot = (1u32 << lanes) - 1;
     visits + u64::from((!candidates & in_slot).count_ones())
