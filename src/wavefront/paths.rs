@@ -121,10 +121,98 @@ impl ShadowRays {
         self.path.is_empty()
     }
 
-    #[inline]
+    /// A writer that appends rays eight at a time; the last few land when
+    /// it is dropped.
+    pub fn writer(&mut self) -> ShadowWriter<'_> {
+        ShadowWriter {
+            out: self,
+            staged: Staged::default(),
+            count: 0,
+        }
+    }
+}
+
+/// Appends rays to [`ShadowRays`] through a staging block of eight.
+///
+/// A ray is eleven numbers in eleven arrays, and pushing them one by one
+/// checks and bumps eleven vector lengths per ray — which cost the shade
+/// stage more than the light sampling that made the ray. Staged, a ray is
+/// eleven stores to a block on the stack, and every eighth ray the block
+/// is appended as eleven fixed-size copies.
+pub struct ShadowWriter<'a> {
+    out: &'a mut ShadowRays,
+    staged: Staged,
+    /// Rays staged (below eight between calls).
+    count: usize,
+}
+
+/// Eight rays in the layout of [`ShadowRays`].
+#[derive(Default)]
+struct Staged {
+    /// Origin x, y, z, direction x, y, z, `t_max`.
+    rays: [[f32; 8]; 7],
+    path: [u32; 8],
+    weight: [Vec3; 8],
+}
+
+impl ShadowWriter<'_> {
+    /// Appends a ray of path `path` that carries `weight`.
+    #[inline(always)]
     pub fn push(&mut self, path: usize, origin: Vec3, direction: Vec3, t_max: f32, weight: Vec3) {
-        self.rays.push(origin, direction, t_max);
-        self.path.push(path as u32);
-        self.weight.push(weight);
+        let k = self.count & 7;
+        let s = &mut self.staged;
+        let values = [
+            origin.x,
+            origin.y,
+            origin.z,
+            direction.x,
+            direction.y,
+            direction.z,
+            t_max,
+        ];
+        for (component, value) in s.rays.iter_mut().zip(values) {
+            component[k] = value;
+        }
+        s.path[k] = path as u32;
+        s.weight[k] = weight;
+        self.count = k + 1;
+        if self.count == 8 {
+            self.flush();
+        }
+    }
+
+    /// Appends the staged rays.
+    fn flush(&mut self) {
+        let (n, s, out) = (self.count, &self.staged, &mut *self.out);
+        let r = &mut out.rays;
+        let components = [
+            &mut r.org_x,
+            &mut r.org_y,
+            &mut r.org_z,
+            &mut r.dir_x,
+            &mut r.dir_y,
+            &mut r.dir_z,
+            &mut r.t_max,
+        ];
+        if n == 8 {
+            for (component, staged) in components.into_iter().zip(&s.rays) {
+                component.extend_from_slice(staged);
+            }
+            out.path.extend_from_slice(&s.path);
+            out.weight.extend_from_slice(&s.weight);
+        } else {
+            for (component, staged) in components.into_iter().zip(&s.rays) {
+                component.extend_from_slice(&staged[..n]);
+            }
+            out.path.extend_from_slice(&s.path[..n]);
+            out.weight.extend_from_slice(&s.weight[..n]);
+        }
+        self.count = 0;
+    }
+}
+
+impl Drop for ShadowWriter<'_> {
+    fn drop(&mut self) {
+        self.flush();
     }
 }

@@ -18,7 +18,7 @@ use crate::sampling::rng::{VertexDraws, next_1d_x8};
 use crate::sampling::warp;
 use crate::scene::Geometry;
 
-use super::paths::{Paths, ShadowRays};
+use super::paths::{Paths, ShadowRays, ShadowWriter};
 use super::surface::{SurfacePoints, TriangleRecords};
 
 /// Buffers the shade stage reuses from wave to wave.
@@ -49,14 +49,17 @@ pub struct ShadeInputs<'a> {
 fn vertex_blocks<'a>(inputs: &ShadeInputs<'a>) -> impl Iterator<Item = u32> + 'a {
     let settings = inputs.settings;
     let sources = &inputs.lights.sources;
-    let probes = settings
-        .hemisphere
-        .then(|| sources.len().max(1) as u32 * settings.light_samples);
+    let probes = settings.hemisphere.then(|| hemisphere_probes(inputs));
     let lights = sources
         .iter()
         .filter(move |light| !settings.hemisphere && !light.is_delta())
         .map(move |_| settings.light_samples);
     std::iter::once(1).chain(probes).chain(lights)
+}
+
+/// Probe rays per vertex with `-H`: `-l` per light, and `-l` when there is none.
+fn hemisphere_probes(inputs: &ShadeInputs) -> u32 {
+    inputs.lights.sources.len().max(1) as u32 * inputs.settings.light_samples
 }
 
 /// Block of [`vertex_blocks`] that samples the BSDF.
@@ -93,6 +96,7 @@ pub fn shade(
     }
     draws.draw(&mut paths.stream, vertex_blocks(inputs));
     let n = paths.len();
+    let (mut shadow, mut probes) = (shadow.writer(), probes.writer());
     for start in (0..n).step_by(LANES) {
         let end = (start + LANES).min(n);
         let mut diffuse = 0u32;
@@ -134,7 +138,7 @@ pub fn shade(
                 &chunk,
                 brdf,
                 candidates,
-                (shadow, probes),
+                (&mut shadow, &mut probes),
             );
         }
     }
@@ -170,7 +174,7 @@ fn shade_diffuse(
     chunk: &Chunk,
     (albedo, f): (Vec3x8, Vec3x8),
     candidates: &mut Vec<Candidate>,
-    (shadow, probes): (&mut ShadowRays, &mut ShadowRays),
+    (shadow, probes): (&mut ShadowWriter, &mut ShadowWriter),
 ) {
     let settings = inputs.settings;
     let sp = surfaces.lanes(chunk.start);
@@ -323,7 +327,7 @@ fn push_shadow_rays(
     direct: u32,
     p_out: Vec3x8,
     candidates: &[Candidate],
-    shadow: &mut ShadowRays,
+    shadow: &mut ShadowWriter,
 ) {
     for lane in lanes::each(direct) {
         let origin = p_out.lane(lane);
@@ -348,9 +352,9 @@ fn direct_hemisphere(
     p: Vec3,
     n: Vec3,
     beta: Vec3,
-    probes: &mut ShadowRays,
+    probes: &mut ShadowWriter,
 ) {
-    let count = inputs.lights.sources.len().max(1) as u32 * inputs.settings.light_samples;
+    let count = hemisphere_probes(inputs);
     let scale = 2.0 * std::f32::consts::PI / count as f32;
     for j in 0..count {
         let (u, v) = draws.point(i, FIRST_LIGHT_BLOCK, j);
