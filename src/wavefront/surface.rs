@@ -44,6 +44,8 @@ pub struct SurfacePoints {
     material: Vec<u32>,
     /// Hits of the last [`compute`](Self::compute) (the arrays only grow).
     len: usize,
+    /// The hits' triangle records, fetched ahead of the arithmetic.
+    fetched: Vec<TriangleRecord>,
 }
 
 /// What the stage reads of one triangle — corners, corner normals,
@@ -125,17 +127,32 @@ impl SurfacePoints {
             self.front.resize(n, false);
             self.material.resize(n, 0);
         }
+        // Every hit's record first, in one pass of independent loads: a
+        // record is often a cache miss (80 bytes per triangle, megabytes
+        // in all), and here the core overlaps a dozen misses where the
+        // arithmetic below would wait for each group's in turn. Lanes
+        // that hit no triangle take the first record (their results are
+        // overwritten or never read).
+        let triangle_count = records.0.len();
+        let mut fetched = std::mem::take(&mut self.fetched);
+        fetched.clear();
+        if let Some(&fallback) = records.0.first() {
+            let record = |&prim: &u32| *records.0.get(prim as usize).unwrap_or(&fallback);
+            fetched.extend(hits.prim[..n].iter().map(record));
+        }
         for start in (0..n).step_by(LANES) {
             let end = (start + LANES).min(n);
-            // Triangle lanes; the others borrow the first one's vertices
-            // (their results are overwritten or never read).
-            let mut corners = [None; LANES];
-            for (lane, &prim) in hits.prim[start..end].iter().enumerate() {
-                corners[lane] = records.0.get(prim as usize);
-            }
-            if let Some(first) = corners.iter().flatten().next().copied() {
-                let corners = corners.map(|c| c.unwrap_or(first));
-                self.triangles(&corners, hits, rays, start, end);
+            let prims = &hits.prim[start..end];
+            if prims.iter().any(|&prim| (prim as usize) < triangle_count) {
+                let tail: [TriangleRecord; LANES];
+                let corners: &[TriangleRecord; LANES] = match fetched.get(start..start + LANES) {
+                    Some(full) => full.try_into().unwrap(),
+                    None => {
+                        tail = std::array::from_fn(|lane| fetched[(start + lane).min(n - 1)]);
+                        &tail
+                    }
+                };
+                self.triangles(corners, hits, rays, start, end);
             }
             for i in start..end {
                 if !hits.is_hit(i) {
@@ -152,6 +169,7 @@ impl SurfacePoints {
                 }
             }
         }
+        self.fetched = fetched;
     }
 
     /// The surface point of hit `i`.
@@ -208,7 +226,7 @@ impl SurfacePoints {
     /// `corners` per lane).
     fn triangles(
         &mut self,
-        corners: &[&TriangleRecord; LANES],
+        corners: &[TriangleRecord; LANES],
         hits: &Hits,
         rays: &Rays,
         start: usize,
