@@ -36,6 +36,14 @@ impl PassQueue<'_> {
     pub fn is_done(&self) -> bool {
         self.next >= self.len()
     }
+
+    /// Image column and row of the `a`-th active pixel.
+    fn pixel(&self, a: usize) -> (u32, u32) {
+        // Past the last pixel (a wave that ends the pass) any value does.
+        let local = self.active.get(a).copied().unwrap_or(0);
+        let tile = &self.tile;
+        (tile.x0 + local % tile.width, tile.y0 + local / tile.width)
+    }
 }
 
 /// Everything needed to turn (pixel, sample) into a camera ray.
@@ -66,17 +74,24 @@ pub fn refill(
     // one Sobol point per vector lane (a long chain of dependent integer
     // operations each, drawn one by one before).
     let end = queue.next + take;
+    // Item = active pixel · spp + sample: walked with counters, so the
+    // divisions (tens of cycles each) happen once per pixel, not per item.
+    let (mut active, mut sample) = (queue.next / spp, queue.next % spp);
+    let mut pixel = queue.pixel(active);
     for first in (queue.next..end).step_by(8) {
         let items = first..(first + 8).min(end);
         let mut pixels = [(0u32, 0u32); 8];
         let (mut pixel_ids, mut samples) = ([0u32; 8], [0u32; 8]);
-        for (k, item) in items.clone().enumerate() {
-            let local = queue.active[item / spp];
-            samples[k] = queue.first_sample + (item % spp) as u32;
-            let x = queue.tile.x0 + local % queue.tile.width;
-            let row = queue.tile.y0 + local / queue.tile.width;
-            pixels[k] = (x, row);
+        for k in 0..items.len() {
+            if sample == spp {
+                (active, sample) = (active + 1, 0);
+                pixel = queue.pixel(active);
+            }
+            let (x, row) = pixel;
+            samples[k] = queue.first_sample + sample as u32;
+            pixels[k] = pixel;
             pixel_ids[k] = row * width + x;
+            sample += 1;
         }
         let streams = new_streams(cam.seed, pixel_ids, samples);
         let n = items.len();
