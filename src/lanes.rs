@@ -39,6 +39,18 @@ pub fn store(v: &mut [f32], start: usize, x: f32x8) {
     }
 }
 
+/// Appends the first `n` entries of `group` to `v`. A whole group is a
+/// copy of constant size (straight vector moves); only a partial one takes
+/// a run-time length (a call to `memcpy`).
+#[inline(always)]
+pub fn extend<T: Copy>(v: &mut Vec<T>, group: &[T; LANES], n: usize) {
+    if n == LANES {
+        v.extend_from_slice(group);
+    } else {
+        v.extend_from_slice(&group[..n]);
+    }
+}
+
 /// Lane masks as bits (lane `l` is bit `l`), lowest lane first.
 #[inline(always)]
 pub fn each(mut mask: u32) -> impl Iterator<Item = usize> {

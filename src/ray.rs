@@ -68,7 +68,7 @@ impl Rays {
         }
     }
 
-    fn components_mut(&mut self) -> [&mut Vec<f32>; 7] {
+    pub(crate) fn components_mut(&mut self) -> [&mut Vec<f32>; 7] {
         [
             &mut self.org_x,
             &mut self.org_y,

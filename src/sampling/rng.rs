@@ -214,7 +214,7 @@ impl<W: Word> PairSeeds<W> {
 }
 
 /// The random numbers of one camera sample of one pixel.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SampleStream {
     /// Hash of (seed, pixel): selects the pixel's scrambles.
     key: u32,
@@ -434,7 +434,7 @@ impl StreamLanes {
         // a fifth of the draw stage's time when every group took it.
         let full: Option<&[SampleStream; 8]> = group.try_into().ok();
         let field = |f: fn(&SampleStream) -> u32| match full {
-            Some(full) => u32x8::from(full.map(|s| f(&s))),
+            Some(full) => u32x8::from(full.each_ref().map(f)),
             None => {
                 let mut a = [0u32; 8];
                 for (x, s) in a.iter_mut().zip(group) {

@@ -39,8 +39,7 @@ impl PassQueue<'_> {
 
     /// Image column and row of the `a`-th active pixel.
     fn pixel(&self, a: usize) -> (u32, u32) {
-        // Past the last pixel (a wave that ends the pass) any value does.
-        let local = self.active.get(a).copied().unwrap_or(0);
+        let local = self.active[a];
         let tile = &self.tile;
         (tile.x0 + local % tile.width, tile.y0 + local / tile.width)
     }
@@ -73,6 +72,9 @@ pub fn refill(
     // Eight samples at a time: their pixel offsets are drawn together,
     // one Sobol point per vector lane (a long chain of dependent integer
     // operations each, drawn one by one before).
+    if take == 0 {
+        return 0;
+    }
     let end = queue.next + take;
     // Item = active pixel · spp + sample: walked with counters, so the
     // divisions (tens of cycles each) happen once per pixel, not per item.
@@ -129,4 +131,75 @@ pub fn refill(
     }
     queue.next += take;
     take
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::SampleStream;
+    use glam::{Mat3, Vec3};
+
+    /// Waves of every size take the pass's items in order, each with the
+    /// stream of its own (pixel, sample) — waves that start and end in
+    /// the middle of a pixel's samples included.
+    #[test]
+    fn waves_take_every_item_once_with_its_own_pixel_and_sample() {
+        let camera = Camera {
+            position: Vec3::ZERO,
+            target: -Vec3::Z,
+            camera_to_world: Mat3::IDENTITY,
+            screen_distance: 500.0,
+            znear: 0.01,
+            zfar: 100.0,
+        };
+        let (width, height) = (40, 30);
+        let cam = CameraRays {
+            camera: &camera,
+            view: camera.view(width, height),
+            seed: 9,
+            pixel_centre: false,
+            lens_radius: 0.0,
+            focal_distance: 1.0,
+        };
+        let tile = Tile {
+            x0: 8,
+            y0: 4,
+            width: 5,
+            height: 3,
+        };
+        let active = [0u32, 3, 4, 9, 14];
+        for (spp, wave) in [(3, 5), (3, 8), (1, 3), (4, 4), (2, 13)] {
+            let mut queue = PassQueue {
+                tile,
+                active: &active,
+                samples_per_pixel: spp,
+                first_sample: 6,
+                next: 0,
+            };
+            let mut paths = Paths::default();
+            let mut seen = 0;
+            while !queue.is_done() {
+                paths.truncate(0);
+                let taken = refill(&mut paths, wave, &mut queue, &cam);
+                assert_eq!(taken, paths.len());
+                for (k, &slot) in paths.slot.iter().enumerate() {
+                    let item = seen + k;
+                    assert_eq!(slot as usize, item);
+                    let local = active[item / spp as usize];
+                    let (x, y) = (tile.x0 + local % tile.width, tile.y0 + local / tile.width);
+                    let sample = 6 + (item % spp as usize) as u32;
+                    let expected = SampleStream::new(9, y * width + x, sample);
+                    assert_eq!(
+                        paths.stream[k], expected,
+                        "spp {spp}, waves of {wave}, item {item}"
+                    );
+                }
+                seen += taken;
+            }
+            assert_eq!(seen, active.len() * spp as usize);
+            // A drained queue adds nothing.
+            paths.truncate(0);
+            assert_eq!(refill(&mut paths, wave, &mut queue, &cam), 0);
+        }
+    }
 }

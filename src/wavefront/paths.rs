@@ -2,6 +2,7 @@
 
 use glam::Vec3;
 
+use crate::lanes;
 use crate::ray::Rays;
 use crate::sampling::SampleStream;
 
@@ -134,11 +135,11 @@ impl ShadowRays {
 
 /// Appends rays to [`ShadowRays`] through a staging block of eight.
 ///
-/// A ray is eleven numbers in eleven arrays, and pushing them one by one
-/// checks and bumps eleven vector lengths per ray — which cost the shade
+/// A ray is eleven numbers in nine vectors, and pushing them one by one
+/// checks and bumps nine vector lengths per ray — which cost the shade
 /// stage more than the light sampling that made the ray. Staged, a ray is
 /// eleven stores to a block on the stack, and every eighth ray the block
-/// is appended as eleven fixed-size copies.
+/// is appended as nine fixed-size copies.
 pub struct ShadowWriter<'a> {
     out: &'a mut ShadowRays,
     staged: Staged,
@@ -184,29 +185,11 @@ impl ShadowWriter<'_> {
     /// Appends the staged rays.
     fn flush(&mut self) {
         let (n, s, out) = (self.count, &self.staged, &mut *self.out);
-        let r = &mut out.rays;
-        let components = [
-            &mut r.org_x,
-            &mut r.org_y,
-            &mut r.org_z,
-            &mut r.dir_x,
-            &mut r.dir_y,
-            &mut r.dir_z,
-            &mut r.t_max,
-        ];
-        if n == 8 {
-            for (component, staged) in components.into_iter().zip(&s.rays) {
-                component.extend_from_slice(staged);
-            }
-            out.path.extend_from_slice(&s.path);
-            out.weight.extend_from_slice(&s.weight);
-        } else {
-            for (component, staged) in components.into_iter().zip(&s.rays) {
-                component.extend_from_slice(&staged[..n]);
-            }
-            out.path.extend_from_slice(&s.path[..n]);
-            out.weight.extend_from_slice(&s.weight[..n]);
+        for (component, staged) in out.rays.components_mut().into_iter().zip(&s.rays) {
+            lanes::extend(component, staged, n);
         }
+        lanes::extend(&mut out.path, &s.path, n);
+        lanes::extend(&mut out.weight, &s.weight, n);
         self.count = 0;
     }
 }
@@ -214,5 +197,48 @@ impl ShadowWriter<'_> {
 impl Drop for ShadowWriter<'_> {
     fn drop(&mut self) {
         self.flush();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shadow_writer_appends_every_ray_in_order_across_staging_blocks() {
+        let ray = |k: usize| {
+            let f = k as f32;
+            let origin = Vec3::new(f, f + 0.25, f + 0.5);
+            (
+                k + 1000,
+                origin,
+                Vec3::new(-f, 1.0, f),
+                f + 2.0,
+                Vec3::splat(3.0 * f),
+            )
+        };
+        for count in [0, 1, 7, 8, 9, 17] {
+            let mut shadow = ShadowRays::default();
+            // Rays already in the batch stay in front of the new ones.
+            shadow.writer().push(7, Vec3::ONE, Vec3::Y, 5.0, Vec3::ONE);
+            {
+                let mut writer = shadow.writer();
+                for k in 0..count {
+                    let (path, o, d, t, w) = ray(k);
+                    writer.push(path, o, d, t, w);
+                }
+            }
+            assert_eq!((shadow.len(), shadow.rays.len()), (count + 1, count + 1));
+            assert_eq!(shadow.path[0], 7);
+            for k in 0..count {
+                let (path, o, d, t, w) = ray(k);
+                let i = k + 1;
+                assert_eq!(shadow.path[i], path as u32, "{count} rays, ray {k}");
+                assert_eq!(shadow.rays.origin(i), o);
+                assert_eq!(shadow.rays.direction(i), d);
+                assert_eq!(shadow.rays.t_max[i], t);
+                assert_eq!(shadow.weight[i], w);
+            }
+        }
     }
 }

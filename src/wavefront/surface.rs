@@ -4,10 +4,11 @@
 //!
 //! Per triangle hit this is an f64 plane intersection, two normalisations
 //! and an error bound: ~300 instructions as scalar code inside the shading
-//! loop. Across paths the same arithmetic fills vector lanes, and the
-//! fetches of eight hits' [`TriangleRecord`]s (one record per triangle,
-//! so no index fetch in front) are independent loads the core overlaps.
-//! The stage also hands on each hit's material. Sphere hits (rare, and a
+//! loop. Across paths the same arithmetic fills vector lanes. The hits'
+//! [`TriangleRecord`]s (one per triangle, so no index fetch in front) are
+//! copied out first, in a pass of independent loads the core overlaps,
+//! so the arithmetic never waits on memory. The stage also hands on each
+//! hit's material. Sphere hits (rare, and a
 //! different formula) stay scalar.
 
 use glam::Vec3;
@@ -130,9 +131,9 @@ impl SurfacePoints {
         // Every hit's record first, in one pass of independent loads: a
         // record is often a cache miss (80 bytes per triangle, megabytes
         // in all), and here the core overlaps a dozen misses where the
-        // arithmetic below would wait for each group's in turn. Lanes
-        // that hit no triangle take the first record (their results are
-        // overwritten or never read).
+        // arithmetic below would wait for each group's in turn. Hits on
+        // no triangle take the first record, and lanes past the last hit
+        // the last hit's (their results are overwritten or never read).
         let triangle_count = records.0.len();
         let mut fetched = std::mem::take(&mut self.fetched);
         fetched.clear();
@@ -222,8 +223,8 @@ impl SurfacePoints {
         self.front[i] = sp.front;
     }
 
-    /// Surface points of the triangle hits `start..end` (vertex indices
-    /// `corners` per lane).
+    /// Surface points of the triangle hits `start..end` (their records
+    /// `corners`, one per lane).
     fn triangles(
         &mut self,
         corners: &[TriangleRecord; LANES],
