@@ -69,9 +69,6 @@ pub fn refill(
     let take = room.min(queue.len() - queue.next.min(queue.len()));
     let spp = queue.samples_per_pixel as usize;
     let (width, height) = (cam.view.width, cam.view.height);
-    // Eight samples at a time: their pixel offsets are drawn together,
-    // one Sobol point per vector lane (a long chain of dependent integer
-    // operations each, drawn one by one before).
     if take == 0 {
         return 0;
     }
@@ -80,6 +77,9 @@ pub fn refill(
     // divisions (tens of cycles each) happen once per pixel, not per item.
     let (mut active, mut sample) = (queue.next / spp, queue.next % spp);
     let mut pixel = queue.pixel(active);
+    // Eight samples at a time: their pixel offsets are drawn together,
+    // one Sobol point per vector lane (a long chain of dependent integer
+    // operations each, drawn one by one before).
     for first in (queue.next..end).step_by(8) {
         let items = first..(first + 8).min(end);
         let mut pixels = [(0u32, 0u32); 8];

@@ -8,8 +8,8 @@
 //! [`TriangleRecord`]s (one per triangle, so no index fetch in front) are
 //! copied out first, in a pass of independent loads the core overlaps,
 //! so the arithmetic never waits on memory. The stage also hands on each
-//! hit's material. Sphere hits (rare, and a
-//! different formula) stay scalar.
+//! hit's material. Sphere hits (rare, and a different formula) stay
+//! scalar.
 
 use glam::Vec3;
 use wide::{f32x8, f64x4};
