@@ -12,7 +12,7 @@
 //! scalar.
 
 use glam::Vec3;
-use wide::{f32x8, f64x4};
+use wide::{f32x8, f64x4, i32x8};
 
 use crate::lanes::{self, LANES, Vec3x8};
 use crate::ray::{Hits, Rays, gamma};
@@ -53,15 +53,52 @@ pub struct SurfacePoints {
 /// material — in one record, built once per render. Through the scene's
 /// indexed arrays a hit cost an index fetch and then six vertex fetches
 /// from scattered places (two rounds of cache misses, seven lines); here
-/// it is one fetch of two adjacent lines. 80 bytes per triangle.
+/// it is one aligned 64-byte record, one cache line (PERF.md: the 80-byte
+/// record with f32 normals straddled two lines, and its second line cost
+/// ~3% of a render).
+///
+/// The corner normals are stored as 16-bit signed-normalised integers
+/// (error ≤ 1/65534 per component, ~2e-5 rad in direction): shading
+/// normals only orient the sampling frame, so this is far below anything
+/// an image shows, while positions stay exact (the hit point and its
+/// error bound, which keep new rays off the surface, read only those).
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(16))]
+#[repr(C, align(64))]
 pub struct TriangleRecord {
-    /// x, y, z of corners 0, 1, 2, then of corner normals 0, 1, 2: eight
-    /// records' first and second eight floats are one 8×8 transpose each
-    /// from the lanes the surface stage works in.
-    coords: [f32; 18],
-    material: u32,
+    /// x, y, z of corners 0 and 1, x, y of corner 2.
+    head: [f32; 8],
+    /// As bits: z of corner 2; the nine normal components (x, y, z of
+    /// corners 0, 1, 2) as i16 pairs in words 1..=5, low half first; the
+    /// material in word 6. Eight records' heads and tails are one 8×8
+    /// transpose each into the lanes the surface stage works in.
+    tail: [i32; 8],
+}
+
+/// Word of [`TriangleRecord::tail`] holding the material.
+const MATERIAL_WORD: usize = 6;
+/// Scale of the 16-bit normal components.
+const SNORM: f32 = i16::MAX as f32;
+
+impl TriangleRecord {
+    fn new(corners: [Vec3; 3], normals: [Vec3; 3], material: u32) -> TriangleRecord {
+        let c = corners.map(|v| v.to_array()).concat();
+        let mut tail = [0i32; 8];
+        tail[0] = c[8].to_bits() as i32;
+        let components = normals.map(|v| v.to_array()).concat();
+        for (j, &x) in components.iter().enumerate() {
+            let q = (x.clamp(-1.0, 1.0) * SNORM).round() as i16 as u16 as i32;
+            tail[1 + j / 2] |= q << (16 * (j % 2));
+        }
+        tail[MATERIAL_WORD] = material as i32;
+        TriangleRecord {
+            head: c[..8].try_into().unwrap(),
+            tail,
+        }
+    }
+
+    fn material(&self) -> u32 {
+        self.tail[MATERIAL_WORD] as u32
+    }
 }
 
 /// [`TriangleRecord`]s of a scene's triangles, by triangle index.
@@ -73,18 +110,10 @@ impl TriangleRecords {
         TriangleRecords(
             (0..tris.len())
                 .map(|t| {
-                    let [a, b, c] = tris.indices[t];
                     let normal =
                         |k: u32| tris.normals.get(k as usize).copied().unwrap_or(Vec3::ZERO);
-                    let (p, n) = (tris.vertices(t), [normal(a), normal(b), normal(c)]);
-                    let mut coords = [0.0; 18];
-                    for (k, v) in p.iter().chain(&n).enumerate() {
-                        coords[3 * k..3 * k + 3].copy_from_slice(&v.to_array());
-                    }
-                    TriangleRecord {
-                        coords,
-                        material: tris.material[t],
-                    }
+                    let normals = tris.indices[t].map(normal);
+                    TriangleRecord::new(tris.vertices(t), normals, tris.material[t])
                 })
                 .collect(),
         )
@@ -129,7 +158,7 @@ impl SurfacePoints {
             self.material.resize(n, 0);
         }
         // Every hit's record first, in one pass of independent loads: a
-        // record is often a cache miss (80 bytes per triangle, megabytes
+        // record is often a cache miss (64 bytes per triangle, megabytes
         // in all), and here the core overlaps a dozen misses where the
         // arithmetic below would wait for each group's in turn. Hits on
         // no triangle take the first record, and lanes past the last hit
@@ -160,7 +189,7 @@ impl SurfacePoints {
                     continue;
                 }
                 match geometry.primitive(hits.prim[i]) {
-                    Primitive::Triangle(t) => self.material[i] = records.0[t].material,
+                    Primitive::Triangle(t) => self.material[i] = records.0[t].material(),
                     Primitive::Sphere(s) => {
                         let (o, d) = (rays.origin(i), rays.direction(i));
                         let sp = sphere_point(geometry, s, o, d, hits.t[i]);
@@ -233,21 +262,25 @@ impl SurfacePoints {
         start: usize,
         end: usize,
     ) {
-        // Lane `l` of coordinate `k`: the records' floats, transposed.
-        let rows =
-            |first: usize| {
-                f32x8::transpose(corners.map(|r| {
-                    f32x8::from(<[f32; 8]>::try_from(&r.coords[first..first + 8]).unwrap())
-                }))
-            };
-        let (lo, hi) = (rows(0), rows(8));
-        let coord: [L; 18] = std::array::from_fn(|k| match k {
-            0..8 => lo[k],
-            8..16 => hi[k - 8],
-            _ => f32x8::from(corners.map(|r| r.coords[k])),
+        // Lane `l` of word `k`: the records' heads and tails, transposed.
+        let head = f32x8::transpose(corners.map(|r| f32x8::from(r.head)));
+        let tail = f32x8::transpose(corners.map(|r| lanes::from_bits(i32x8::from(r.tail))))
+            .map(lanes::to_bits);
+        let coord: [L; 9] = std::array::from_fn(|k| match k {
+            0..8 => head[k],
+            _ => lanes::from_bits(tail[0]),
         });
         let corner = |k: usize| Vec3x8::new(coord[3 * k], coord[3 * k + 1], coord[3 * k + 2]);
-        let normal = |k: usize| corner(k + 3);
+        // Normal component j: the low (even j) or high (odd j) half of
+        // word 1 + j/2, moved to the top and sign-extended back down by
+        // the arithmetic shift.
+        let component = |j: usize| {
+            let to_top = 16 * (1 - (j % 2) as i32);
+            let q = (tail[1 + j / 2] << to_top) >> 16;
+            f32x8::from_i32x8(q) * L::splat(1.0 / SNORM)
+        };
+        let normal =
+            |k: usize| Vec3x8::new(component(3 * k), component(3 * k + 1), component(3 * k + 2));
         let load = |v: &[f32]| lanes::load(&v[..end], start);
         let (a, b, c) = (corner(0), corner(1), corner(2));
         let o = Vec3x8::load(
@@ -375,7 +408,8 @@ mod tests {
     use crate::ray::NO_HIT;
 
     /// The per-hit scalar formulation the vector stage replaced, kept as
-    /// the reference it must reproduce bit for bit.
+    /// the reference it must reproduce: bit for bit, but for the shading
+    /// normal, read from 16-bit components.
     fn scalar_triangle_point(
         tris: &crate::scene::Triangles,
         i: usize,
@@ -503,12 +537,17 @@ mod tests {
                 Primitive::Sphere(s) => sphere_point(&g, s, o, d, t),
             };
             let got = points.get(i);
-            let bits =
-                |sp: &SurfacePoint| [sp.p, sp.ng, sp.ns].map(|v| v.to_array().map(f32::to_bits));
+            let bits = |sp: &SurfacePoint| [sp.p, sp.ng].map(|v| v.to_array().map(f32::to_bits));
             assert_eq!(
                 bits(&got),
                 bits(&expected),
                 "hit {i}: {got:?} vs {expected:?}"
+            );
+            // The records' 16-bit normals: each component within 1/65534,
+            // so a unit shading normal is off by well under 1e-4.
+            assert!(
+                (got.ns - expected.ns).length() < 1e-4 && got.ns.is_normalized(),
+                "hit {i} ns: {got:?} vs {expected:?}"
             );
             assert_eq!(got.err.to_bits(), expected.err.to_bits(), "hit {i} err");
             assert_eq!(got.front, expected.front, "hit {i} front");
