@@ -17,7 +17,7 @@
 //! Primitives whose centroids coincide, and any subtree deeper than 48
 //! levels, fall back to median splits, which bounds the depth.
 
-use glam::Vec3A;
+use glam::{BVec3A, Vec3A};
 use rayon::prelude::*;
 
 use crate::scene::Aabb;
@@ -104,6 +104,15 @@ impl Bounds {
     fn half_area(self) -> f32 {
         let d = (self.max - self.min).max(Vec3A::ZERO);
         d.x * d.y + d.y * d.z + d.z * d.x
+    }
+
+    /// `self` where `mask` is set, else `other` (per axis, both corners).
+    #[inline]
+    fn select(self, mask: BVec3A, other: Bounds) -> Bounds {
+        Bounds {
+            min: Vec3A::select(mask, self.min, other.min),
+            max: Vec3A::select(mask, self.max, other.max),
+        }
     }
 
     fn aabb(self) -> Aabb {
@@ -531,21 +540,26 @@ fn choose_split(
     }
     let (_, a, k) = best;
     // Partition, collecting both sides' bounds on the way (saves the
-    // children a pass over their primitives).
-    let (mut i, mut j) = (0, n);
+    // children a pass over their primitives). Which side a primitive goes
+    // to is a coin toss to the branch predictor, so nothing here branches
+    // on it: a Lomuto partition with an unconditional swap (a primitive
+    // for the right side swaps with another one, or with itself), and
+    // both sides' bounds grown, the right one kept by a select.
+    let mut i = 0;
     let mut sides = [(Bounds::EMPTY, Bounds::EMPTY); 2];
-    while i < j {
-        let id = prims[i] as usize;
-        let side = if bin_index(ctx.centroids[id])[a] < k {
-            i += 1;
-            0
-        } else {
-            j -= 1;
-            prims.swap(i, j);
-            1
-        };
-        sides[side].0 = sides[side].0.union(ctx.bounds[id]);
-        sides[side].1 = sides[side].1.grow(ctx.centroids[id]);
+    for j in 0..n {
+        let id = prims[j];
+        let (b, c) = (ctx.bounds[id as usize], ctx.centroids[id as usize]);
+        let left = bin_index(c)[a] < k;
+        prims[j] = prims[i];
+        prims[i] = id;
+        i += left as usize;
+        let keep = BVec3A::splat(left);
+        let [l, r] = &mut sides;
+        l.0 = l.0.union(b).select(keep, l.0);
+        l.1 = l.1.grow(c).select(keep, l.1);
+        r.0 = r.0.select(keep, r.0.union(b));
+        r.1 = r.1.select(keep, r.1.grow(c));
     }
     if i == 0 || i == n {
         Some(object_median(ctx, prims, axis).into())
