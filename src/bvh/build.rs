@@ -544,7 +544,8 @@ fn choose_split(
     // to is a coin toss to the branch predictor, so nothing here branches
     // on it: a Lomuto partition with an unconditional swap (a primitive
     // for the right side swaps with another one, or with itself), and
-    // both sides' bounds grown, the right one kept by a select.
+    // both sides' bounds grown, selects keeping the grown one only on
+    // the primitive's side.
     let mut i = 0;
     let mut sides = [(Bounds::EMPTY, Bounds::EMPTY); 2];
     for j in 0..n {

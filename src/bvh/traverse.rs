@@ -527,7 +527,10 @@ fn spheres_occlude(
 /// `t_enter`) by distance, pushes all but the nearest far-to-near and
 /// returns the nearest. Most nodes are entered with one or two children
 /// hit, which take a short path; more are ranked in SIMD lanes. Equal
-/// distances are visited in descending slot order on every path.
+/// distances are visited in descending slot order on every path. The
+/// distances of hit children are never NaN (the slab test's entry
+/// distance starts at 0 and ignores NaN candidates), which the ranking
+/// relies on: a NaN would compare unequal to itself and share a place.
 #[inline(always)]
 fn push_children(
     node: &WideNode,
@@ -737,9 +740,10 @@ mod tests {
     use super::*;
 
     /// Every set of hit children, with distinct and tied distances: the
-    /// nearest is returned and the rest are pushed far to near, ties in
-    /// descending slot order (popped, so visited, in ascending distance
-    /// and descending slot), nothing lost or duplicated.
+    /// nearest is returned and the rest are pushed far to near (ties in
+    /// ascending slot order, so they are popped, and visited, in
+    /// ascending distance and descending slot), nothing lost or
+    /// duplicated, and what was on the stack before left alone.
     #[test]
     fn children_are_pushed_far_to_near() {
         let child = std::array::from_fn(|s| ChildRef::node(100 + s as u32));
@@ -755,7 +759,12 @@ mod tests {
         for t in distances {
             for mask in 1u32..(1 << WIDTH) {
                 let mut stack = new_stack();
-                let mut sp = 3; // entries already on the stack stay put
+                let below = Entry {
+                    child: 999,
+                    t: -1.0,
+                };
+                stack[..3].fill(below);
+                let mut sp = 3;
                 let nearest = push_children(&node, mask, Lanes::from(t), &mut stack, &mut sp);
                 // Visit order: the returned child, then pops from the top.
                 let mut visited = vec![nearest.0 - 100];
@@ -771,6 +780,7 @@ mod tests {
                 for e in &stack[3..sp] {
                     assert_eq!(e.t, t[e.child as usize - 100]);
                 }
+                assert!(stack[..3].iter().all(|e| e.child == 999 && e.t == -1.0));
             }
         }
     }

@@ -37,8 +37,8 @@ use crate::ray::NO_HIT;
 /// [`TRI_WIDTH`] triangles, structure of arrays: the real ones in lanes
 /// `0..len()`, then padding lanes with NaN vertices (every comparison
 /// fails, so they never hit) and id [`NO_HIT`]. 320 bytes, aligned so
-/// that a group is exactly five cache lines (at 32-byte alignment most
-/// groups straddled six).
+/// that a group is exactly five cache lines (at 32-byte alignment an
+/// allocation could start mid-line, and then every group straddled six).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(crate) struct TriGroup {

@@ -68,11 +68,14 @@ pub struct TriangleRecord {
     /// x, y, z of corners 0 and 1, x, y of corner 2.
     head: [f32; 8],
     /// As bits: z of corner 2; the nine normal components (x, y, z of
-    /// corners 0, 1, 2) as i16 pairs in words 1..=5, low half first; the
-    /// material in word 6. Eight records' heads and tails are one 8×8
-    /// transpose each into the lanes the surface stage works in.
+    /// corners 0, 1, 2) as i16, two per word in words 1..=5, low half
+    /// first (word 5's high half is zero); the material in word 6; word 7
+    /// zero. Eight records' heads and tails are one 8×8 transpose each
+    /// into the lanes the surface stage works in.
     tail: [i32; 8],
 }
+
+const _: () = assert!(std::mem::size_of::<TriangleRecord>() == 64);
 
 /// Word of [`TriangleRecord::tail`] holding the material.
 const MATERIAL_WORD: usize = 6;
@@ -86,6 +89,13 @@ impl TriangleRecord {
         tail[0] = c[8].to_bits() as i32;
         let components = normals.map(|v| v.to_array()).concat();
         for (j, &x) in components.iter().enumerate() {
+            // The scene's normals are unit (or zero), so the clamp only
+            // absorbs rounding; `as u16` keeps a negative value's sign
+            // bits out of the word's other half.
+            debug_assert!(
+                x.abs() <= 1.0 + 1e-5,
+                "shading normal not unit: {normals:?}"
+            );
             let q = (x.clamp(-1.0, 1.0) * SNORM).round() as i16 as u16 as i32;
             tail[1 + j / 2] |= q << (16 * (j % 2));
         }
@@ -467,10 +477,11 @@ mod tests {
             Vec3::new(0.0, 0.0, 1.0),
             Vec3::new(1e-3, 0.0, 1.0),
         ];
+        // Negative components in both halves of the records' packed words.
         t.normals = vec![
             Vec3::new(0.0, 0.6, 0.8),
-            Vec3::new(0.0, 0.8, 0.6),
-            Vec3::Z,
+            Vec3::new(0.0, -0.8, 0.6),
+            Vec3::new(-0.6, 0.0, 0.8),
             Vec3::Z,
             -Vec3::Z,
             Vec3::Z,
@@ -479,10 +490,10 @@ mod tests {
             Vec3::X,
         ];
         t.indices = vec![[0, 1, 2], [3, 4, 5], [6, 6, 6], [7, 8, 3]];
-        t.material = vec![0; 4];
+        t.material = vec![3, 0, 7, 1];
         g.spheres.center = vec![Vec3::new(0.0, 0.0, -10.0)];
         g.spheres.radius = vec![2.0];
-        g.spheres.material = vec![0];
+        g.spheres.material = vec![5];
         let sphere = 4u32;
 
         let (mut rays, mut hits) = (Rays::default(), Hits::default());
@@ -537,6 +548,11 @@ mod tests {
                 Primitive::Sphere(s) => sphere_point(&g, s, o, d, t),
             };
             let got = points.get(i);
+            let material = match g.primitive(hits.prim[i]) {
+                Primitive::Triangle(tri) => g.triangles.material[tri],
+                Primitive::Sphere(s) => g.spheres.material[s],
+            };
+            assert_eq!(points.material(i), material, "hit {i} material");
             let bits = |sp: &SurfacePoint| [sp.p, sp.ng].map(|v| v.to_array().map(f32::to_bits));
             assert_eq!(
                 bits(&got),
