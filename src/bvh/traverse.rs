@@ -544,17 +544,17 @@ fn push_children(
     if rest == 0 {
         return node.child[first];
     }
-    let t_enter = t_enter.to_array();
+    let te = t_enter.to_array();
     if rest & (rest - 1) == 0 {
         let second = rest.trailing_zeros() as usize;
-        let (near, far) = if t_enter[first] < t_enter[second] {
+        let (near, far) = if te[first] < te[second] {
             (first, second)
         } else {
             (second, first)
         };
         stack[*sp] = Entry {
             child: node.child[far].0,
-            t: t_enter[far],
+            t: te[far],
         };
         *sp += 1;
         return node.child[near];
@@ -569,7 +569,7 @@ fn push_children(
     const { assert!(WIDTH == 8) };
     let n = mask.count_ones() as usize;
     let hit = crate::lanes::lane_mask(mask);
-    let t = hit.select(Lanes::from(t_enter), Lanes::splat(f32::NEG_INFINITY));
+    let t = hit.select(t_enter, Lanes::splat(f32::NEG_INFINITY));
     let slot = i32x8::from([0, 1, 2, 3, 4, 5, 6, 7]);
     let mut place = i32x8::ZERO;
     for j in 0..WIDTH {
@@ -583,7 +583,7 @@ fn push_children(
     for (s, &p) in place.iter().enumerate() {
         stack[*sp + (p as usize & (WIDTH - 1))] = Entry {
             child: node.child[s].0,
-            t: t_enter[s],
+            t: te[s],
         };
     }
     let nearest = ChildRef(stack[*sp + n - 1].child);

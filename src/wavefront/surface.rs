@@ -105,10 +105,6 @@ impl TriangleRecord {
             tail,
         }
     }
-
-    fn material(&self) -> u32 {
-        self.tail[MATERIAL_WORD] as u32
-    }
 }
 
 /// [`TriangleRecord`]s of a scene's triangles, by triangle index.
@@ -194,18 +190,15 @@ impl SurfacePoints {
                 };
                 self.triangles(corners, hits, rays, start, end);
             }
+            // Sphere hits overwrite what their lanes got above.
             for i in start..end {
-                if !hits.is_hit(i) {
-                    continue;
-                }
-                match geometry.primitive(hits.prim[i]) {
-                    Primitive::Triangle(t) => self.material[i] = records.0[t].material(),
-                    Primitive::Sphere(s) => {
-                        let (o, d) = (rays.origin(i), rays.direction(i));
-                        let sp = sphere_point(geometry, s, o, d, hits.t[i]);
-                        self.set(i, sp);
-                        self.material[i] = geometry.spheres.material[s];
-                    }
+                if hits.is_hit(i)
+                    && let Primitive::Sphere(s) = geometry.primitive(hits.prim[i])
+                {
+                    let (o, d) = (rays.origin(i), rays.direction(i));
+                    let sp = sphere_point(geometry, s, o, d, hits.t[i]);
+                    self.set(i, sp);
+                    self.material[i] = geometry.spheres.material[s];
                 }
             }
         }
@@ -262,8 +255,8 @@ impl SurfacePoints {
         self.front[i] = sp.front;
     }
 
-    /// Surface points of the triangle hits `start..end` (their records
-    /// `corners`, one per lane).
+    /// Surface points and materials of the triangle hits `start..end`
+    /// (their records `corners`, one per lane).
     fn triangles(
         &mut self,
         corners: &[TriangleRecord; LANES],
@@ -346,6 +339,10 @@ impl SurfacePoints {
         let front = front.to_bitmask();
         for (lane, f) in self.front[start..end].iter_mut().enumerate() {
             *f = front & (1 << lane) != 0;
+        }
+        let material = tail[MATERIAL_WORD].to_array();
+        for (m, &word) in self.material[start..end].iter_mut().zip(&material) {
+            *m = word as u32;
         }
     }
 }
