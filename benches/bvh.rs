@@ -8,6 +8,7 @@
 //! BVH_BENCH_SCALING=1 cargo bench --bench bvh -- scaling   # 1k..4M triangle sweep
 //! BVH_BENCH_QUICK=1 cargo bench --bench bvh --features embree  # plain table, see below
 //! BVH_BENCH_PROFILE=primary cargo bench --bench bvh   # one set, traced once, for a profiler
+//! BVH_BENCH_PROFILE=threads cargo bench --bench bvh --features embree  # 1→all-thread scaling
 //! ```
 //!
 //! `BVH_BENCH_QUICK=1` skips criterion and prints one table row per scene
@@ -560,6 +561,60 @@ fn quick(w: &Workload) {
     }
 }
 
+/// `BVH_BENCH_PROFILE=threads`: how each ray set's trace rate grows from
+/// one thread to all, for wavepath and (with the `embree` feature) Embree's
+/// single-ray calls, all four timed in wall clock, alternating, nine rounds
+/// each; medians. Rays whose traversal is bound by memory latency or
+/// bandwidth shared between cores scale worse than the quick table's
+/// one-thread figures suggest.
+fn thread_scaling(w: &Workload) {
+    let bvh = Bvh::build(&w.geometry, Accel::Sah);
+    #[cfg(feature = "embree")]
+    let device = embree::Device::new();
+    #[cfg(feature = "embree")]
+    let escene = embree::Scene::new(&device, &w.geometry);
+    let [(_, one), (_, all)] = pools();
+    for set in &ray_sets(w, &bvh) {
+        let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
+        let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
+        let n = set.len() as f64 * 1e-6;
+        let mut rates: [Vec<f64>; 4] = Default::default();
+        for _ in 0..9 {
+            for (k, pool) in [&one, &all].into_iter().enumerate() {
+                let (_, wall) =
+                    best_of(1, || pool.install(|| trace(&bvh, set, &mut hits, &mut occ)));
+                rates[k].push(n / wall);
+                #[cfg(feature = "embree")]
+                {
+                    let (_, wall) = best_of(1, || {
+                        pool.install(|| {
+                            set.batches
+                                .par_iter()
+                                .zip(hits.par_iter_mut())
+                                .for_each(|(rays, h)| {
+                                    escene.trace(rays, set.shadow, false, embree::Mode::Single, h)
+                                })
+                        })
+                    });
+                    rates[2 + k].push(n / wall);
+                }
+            }
+        }
+        let median = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+        };
+        let [w1, wn, e1, en] = rates.each_mut().map(median);
+        println!(
+            "{} {:8} Mrays/s 1t → all: wavepath {w1:6.1} → {wn:6.1} ({:.2}×) | embree-1 {e1:6.1} → {en:6.1} ({:.2}×)",
+            w.name,
+            set.kind,
+            wn / w1,
+            en / e1
+        );
+    }
+}
+
 /// The traces of [`profile`], in a function of their own so that a
 /// profiler can count them alone: building the ray sets traces the
 /// primary rays too (to find the surfaces the other sets start from).
@@ -583,7 +638,8 @@ fn main() {
     let mut c = Criterion::default().configure_from_args();
     let profiled = std::env::var("BVH_BENCH_PROFILE").ok();
     if std::env::var_os("BVH_BENCH_QUICK").is_some() || profiled.is_some() {
-        let run = |w: &Workload| match &profiled {
+        let run = |w: &Workload| match profiled.as_deref() {
+            Some("threads") => thread_scaling(w),
             Some(kind) => profile(w, kind),
             None => quick(w),
         };
