@@ -292,6 +292,17 @@ fn trace(bvh: &Bvh, set: &RaySet, hits: &mut [Hits], occ: &mut [Vec<bool>]) {
     }
 }
 
+/// Traces every batch of `set` with Embree in `mode`, in parallel on the
+/// current pool (camera rays flagged coherent, the others incoherent).
+#[cfg(feature = "embree")]
+fn trace_embree(scene: &embree::Scene, set: &RaySet, mode: embree::Mode, hits: &mut [Hits]) {
+    let coherent = set.kind == "primary";
+    set.batches
+        .par_iter()
+        .zip(hits.par_iter_mut())
+        .for_each(|(rays, h)| scene.trace(rays, set.shadow, coherent, mode, h));
+}
+
 fn pools() -> [(&'static str, rayon::ThreadPool); 2] {
     [
         (
@@ -379,16 +390,7 @@ fn bench_workload(c: &mut Criterion, w: &Workload) {
                 embree::Mode::Packet16,
             ] {
                 group.bench_function(BenchmarkId::new(mode.name(), threads), |b| {
-                    b.iter(|| {
-                        pool.install(|| {
-                            set.batches
-                                .par_iter()
-                                .zip(hits.par_iter_mut())
-                                .for_each(|(rays, h)| {
-                                    escene.trace(rays, set.shadow, set.kind == "primary", mode, h)
-                                })
-                        })
-                    })
+                    b.iter(|| pool.install(|| trace_embree(&escene, set, mode, &mut hits)))
                 });
             }
         }
@@ -548,12 +550,7 @@ fn quick(w: &Workload) {
                 }
             });
             let (_, wm) = best_of(3, || {
-                all.install(|| {
-                    set.batches
-                        .par_iter()
-                        .zip(hits.par_iter_mut())
-                        .for_each(|(rays, h)| escene.trace(rays, set.shadow, primary, mode, h))
-                })
+                all.install(|| trace_embree(&escene, set, mode, &mut hits))
             });
             row += &format!(" | {} {:6.1} {:6.1}", mode.name(), n / c1, n / wm);
         }
@@ -564,9 +561,8 @@ fn quick(w: &Workload) {
 /// `BVH_BENCH_PROFILE=threads`: how each ray set's trace rate grows from
 /// one thread to all, for wavepath and (with the `embree` feature) Embree's
 /// single-ray calls, all four timed in wall clock, alternating, nine rounds
-/// each; medians. Rays whose traversal is bound by memory latency or
-/// bandwidth shared between cores scale worse than the quick table's
-/// one-thread figures suggest.
+/// each; medians. Tells a gap between the quick table's one- and
+/// all-thread ratios apart from noise.
 fn thread_scaling(w: &Workload) {
     let bvh = Bvh::build(&w.geometry, Accel::Sah);
     #[cfg(feature = "embree")]
@@ -587,14 +583,7 @@ fn thread_scaling(w: &Workload) {
                 #[cfg(feature = "embree")]
                 {
                     let (_, wall) = best_of(1, || {
-                        pool.install(|| {
-                            set.batches
-                                .par_iter()
-                                .zip(hits.par_iter_mut())
-                                .for_each(|(rays, h)| {
-                                    escene.trace(rays, set.shadow, false, embree::Mode::Single, h)
-                                })
-                        })
+                        pool.install(|| trace_embree(&escene, set, embree::Mode::Single, &mut hits))
                     });
                     rates[2 + k].push(n / wall);
                 }

@@ -324,9 +324,7 @@ fn test_pairs(
     let az = p(0, 2) - oz;
     let bz = p(1, 2) - oz;
     let cz = p(2, 2) - oz;
-    // Fused multiply-adds are safe here: each sheared vertex is one
-    // function of that vertex and the ray alone, so triangles sharing it
-    // still see the same bits (the edge functions below stay unfused).
+    // Fused: safe for watertightness here, not below (module docs).
     let ax = sx.mul_neg_add(az, p(0, 0) - ox);
     let ay = sy.mul_neg_add(az, p(0, 1) - oy);
     let bx = sx.mul_neg_add(bz, p(1, 0) - ox);
