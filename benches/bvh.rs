@@ -9,6 +9,7 @@
 //! BVH_BENCH_QUICK=1 cargo bench --bench bvh --features embree  # plain table, see below
 //! BVH_BENCH_PROFILE=primary cargo bench --bench bvh   # one set, traced once, for a profiler
 //! BVH_BENCH_PROFILE=threads cargo bench --bench bvh --features embree  # 1→all-thread scaling
+//! BVH_BENCH_EMBREE_CONFIG=verbose=2 …   # Embree prints its BVH statistics (SAH cost, nodes)
 //! ```
 //!
 //! `BVH_BENCH_QUICK=1` skips criterion and prints one table row per scene
@@ -559,33 +560,43 @@ fn quick(w: &Workload) {
 }
 
 /// `BVH_BENCH_PROFILE=threads`: how each ray set's trace rate grows from
-/// one thread to all, for wavepath and (with the `embree` feature) Embree's
-/// single-ray calls, all four timed in wall clock, alternating, nine rounds
-/// each; medians. Tells a gap between the quick table's one- and
-/// all-thread ratios apart from noise.
+/// one thread to all, for wavepath and (with the `embree` feature) each of
+/// Embree's modes, all timed in wall clock, alternating, nine rounds each;
+/// medians. Tells a gap between the quick table's one- and all-thread
+/// ratios apart from noise, and gives the all-thread ratio to Embree's
+/// best mode from interleaved runs.
 fn thread_scaling(w: &Workload) {
     let bvh = Bvh::build(&w.geometry, Accel::Sah);
     #[cfg(feature = "embree")]
     let device = embree::Device::new();
     #[cfg(feature = "embree")]
     let escene = embree::Scene::new(&device, &w.geometry);
+    #[cfg(feature = "embree")]
+    let modes = [
+        embree::Mode::Single,
+        embree::Mode::Packet8,
+        embree::Mode::Packet16,
+    ];
+    #[cfg(not(feature = "embree"))]
+    let modes: [(); 0] = [];
     let [(_, one), (_, all)] = pools();
     for set in &ray_sets(w, &bvh) {
         let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
         let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
         let n = set.len() as f64 * 1e-6;
-        let mut rates: [Vec<f64>; 4] = Default::default();
+        // rates[engine][pool]: engine 0 is wavepath, then Embree's modes.
+        let mut rates = vec![[Vec::new(), Vec::new()]; 1 + modes.len()];
         for _ in 0..9 {
             for (k, pool) in [&one, &all].into_iter().enumerate() {
                 let (_, wall) =
                     best_of(1, || pool.install(|| trace(&bvh, set, &mut hits, &mut occ)));
-                rates[k].push(n / wall);
+                rates[0][k].push(n / wall);
                 #[cfg(feature = "embree")]
-                {
+                for (m, &mode) in modes.iter().enumerate() {
                     let (_, wall) = best_of(1, || {
-                        pool.install(|| trace_embree(&escene, set, embree::Mode::Single, &mut hits))
+                        pool.install(|| trace_embree(&escene, set, mode, &mut hits))
                     });
-                    rates[2 + k].push(n / wall);
+                    rates[1 + m][k].push(n / wall);
                 }
             }
         }
@@ -593,14 +604,26 @@ fn thread_scaling(w: &Workload) {
             v.sort_by(f64::total_cmp);
             v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
         };
-        let [w1, wn, e1, en] = rates.each_mut().map(median);
-        println!(
-            "{} {:8} Mrays/s 1t → all: wavepath {w1:6.1} → {wn:6.1} ({:.2}×) | embree-1 {e1:6.1} → {en:6.1} ({:.2}×)",
-            w.name,
-            set.kind,
-            wn / w1,
-            en / e1
-        );
+        let medians: Vec<[f64; 2]> = rates.iter_mut().map(|r| r.each_mut().map(median)).collect();
+        let mut row = format!("{} {:8} Mrays/s 1t → all:", w.name, set.kind);
+        #[cfg(feature = "embree")]
+        let names: Vec<&str> = std::iter::once("wavepath")
+            .chain(modes.iter().map(|m| m.name()))
+            .collect();
+        #[cfg(not(feature = "embree"))]
+        let names = ["wavepath"];
+        for (name, [r1, rn]) in names.iter().zip(&medians) {
+            row += &format!(" | {name} {r1:6.1} → {rn:6.1} ({:.2}×)", rn / r1);
+        }
+        if medians.len() > 1 {
+            let best = |k: usize| medians[1..].iter().map(|m| m[k]).fold(0.0, f64::max);
+            row += &format!(
+                " | vs best: 1t {:.2}, all {:.2}",
+                medians[0][0] / best(0),
+                medians[0][1] / best(1)
+            );
+        }
+        println!("{row}");
     }
 }
 
@@ -809,8 +832,15 @@ mod embree {
 
     impl Device {
         pub fn new() -> Device {
-            // SAFETY: a null config string selects the defaults.
-            let d = unsafe { rtcNewDevice(ptr::null()) };
+            // `BVH_BENCH_EMBREE_CONFIG` (e.g. "verbose=2", which prints
+            // Embree's BVH statistics) is passed through; unset selects the
+            // defaults.
+            let config = std::env::var("BVH_BENCH_EMBREE_CONFIG").ok().map(|c| {
+                std::ffi::CString::new(c).expect("BVH_BENCH_EMBREE_CONFIG holds a NUL byte")
+            });
+            let config_ptr = config.as_ref().map_or(ptr::null(), |c| c.as_ptr());
+            // SAFETY: a null or NUL-terminated config string, alive for the call.
+            let d = unsafe { rtcNewDevice(config_ptr) };
             assert!(!d.is_null(), "rtcNewDevice failed");
             Device(d)
         }

@@ -7,9 +7,11 @@
 //! shallower (Wald et al., "Getting Rid of Packets", 2008; Dammertz et al.,
 //! "Shallow Bounding Volume Hierarchies", 2008).
 //!
-//! Collapsing is greedy: starting from a node's two children, the interior
-//! child with the largest surface area (the one most likely to be entered)
-//! is replaced by its own two children until the node is full.
+//! Which binary nodes become a wide node's slots is decided by
+//! [`collapse`](super::collapse) (least SAH cost, by dynamic programming),
+//! except at the joins of the parts the build set apart (the large flat
+//! pieces of a scene): those are opened first, greedily, so each part gets
+//! a slot of the root.
 //!
 //! Children are referred to by 32-bit [`ChildRef`]s that encode either a
 //! node index or a leaf (kind, first item, item count), so a node is exactly
@@ -27,6 +29,7 @@
 use glam::Vec3;
 
 use super::build::BuildNode;
+use super::collapse::Plan;
 use super::sphere::PackedSphere;
 use super::triangle::TriGroup;
 use super::{Lanes, TRI_WIDTH, WIDTH};
@@ -119,15 +122,27 @@ pub(crate) struct Flat {
 
 /// Flattens the binary tree `root` whose leaves index `order`.
 pub(crate) fn flatten(root: Option<&BuildNode>, order: &[u32], geometry: &Geometry) -> Flat {
+    let Some(root) = root else {
+        return Flat {
+            nodes: Vec::new(),
+            tri_groups: Vec::new(),
+            spheres: Vec::new(),
+            root: None,
+            depth: 0,
+        };
+    };
+    let plan = Plan::new(root, 0, geometry.triangles.len() as u32, order);
+    flatten_plan(&plan, order, geometry)
+}
+
+/// Flattens the subtree of `plan` as a tree of its own (root at node 0).
+fn flatten_plan(plan: &Plan, order: &[u32], geometry: &Geometry) -> Flat {
     let mut flat = Flat {
         nodes: Vec::new(),
         tri_groups: Vec::new(),
         spheres: Vec::new(),
         root: None,
         depth: 0,
-    };
-    let Some(root) = root else {
-        return flat;
     };
     let mut ctx = Ctx {
         flat: &mut flat,
@@ -136,9 +151,9 @@ pub(crate) fn flatten(root: Option<&BuildNode>, order: &[u32], geometry: &Geomet
     };
     // The root is always an interior wide node, even for a single leaf, so
     // traversal can start with a box test unconditionally.
-    let (slots, n) = match root {
-        BuildNode::Inner { .. } => collapse_children(root),
-        BuildNode::Leaf { .. } => ([root; WIDTH], 1),
+    let (slots, n) = match plan.children() {
+        Some(_) => wide_slots(plan),
+        None => ([plan; WIDTH], 1),
     };
     let depth = ctx.emit_node(&slots[..n]);
     flat.root = Some(ChildRef::node(0));
@@ -155,37 +170,44 @@ struct Ctx<'a> {
     geometry: &'a Geometry,
 }
 
-/// Gathers up to [`WIDTH`] descendants of interior node `node` by repeatedly
-/// opening the interior child with the largest surface area: the first
+/// The slots of the wide node made of interior subtree `plan`: the first
 /// `n` entries of the returned array (no allocation: this runs once per
 /// wide node).
-fn collapse_children(node: &BuildNode) -> ([&BuildNode; WIDTH], usize) {
-    let BuildNode::Inner { children, .. } = node else {
-        unreachable!("collapse_children on a leaf")
+fn wide_slots<'p, 'a>(plan: &'p Plan<'a>) -> ([&'p Plan<'a>; WIDTH], usize) {
+    let joins_parts = |p: &Plan| {
+        matches!(
+            p.node,
+            BuildNode::Inner {
+                joins_parts: true,
+                ..
+            }
+        )
     };
-    let mut slots = [&children[0]; WIDTH];
-    slots[1] = &children[1];
+    if !joins_parts(plan) {
+        return plan.slots();
+    }
+    // Open the joins first, then the interior child with the largest
+    // surface area, until the node is full.
+    let [left, right] = plan.children().expect("joins are interior");
+    let mut slots = [left; WIDTH];
+    slots[1] = right;
     let mut n = 2;
-    // Joins of the build's isolated parts first (each part gets a slot),
-    // then by area.
-    let key = |n: &BuildNode| match n {
-        BuildNode::Inner { joins_parts, .. } => Some((*joins_parts, n.bounds().surface_area())),
-        BuildNode::Leaf { .. } => None,
+    let key = |p: &Plan| {
+        p.children()
+            .map(|_| (joins_parts(p), p.node.bounds().surface_area()))
     };
     while n < WIDTH {
         let best = slots[..n]
             .iter()
             .enumerate()
-            .filter_map(|(i, n)| key(n).map(|k| (i, k)))
+            .filter_map(|(i, p)| key(p).map(|k| (i, k)))
             .max_by(|a, b| a.1.0.cmp(&b.1.0).then(a.1.1.total_cmp(&b.1.1)));
         let Some((i, _)) = best else { break };
-        let BuildNode::Inner { children, .. } = slots[i] else {
-            unreachable!()
-        };
+        let [left, right] = slots[i].children().expect("keyed slots are interior");
         // Remove slot `i` (the last takes its place), append its children.
         slots[i] = slots[n - 1];
-        slots[n - 1] = &children[0];
-        slots[n] = &children[1];
+        slots[n - 1] = left;
+        slots[n] = right;
         n += 1;
     }
     (slots, n)
@@ -194,7 +216,7 @@ fn collapse_children(node: &BuildNode) -> ([&BuildNode; WIDTH], usize) {
 impl Ctx<'_> {
     /// Appends a wide node with children `slots`; returns the depth of the
     /// subtree below it (in wide levels, counting itself).
-    fn emit_node(&mut self, slots: &[&BuildNode]) -> usize {
+    fn emit_node(&mut self, slots: &[&Plan]) -> usize {
         let index = self.flat.nodes.len();
         self.flat.nodes.push(WideNode {
             bounds: [[Lanes::splat(f32::INFINITY), Lanes::splat(f32::NEG_INFINITY)]; 3],
@@ -208,11 +230,10 @@ impl Ctx<'_> {
         // arrays of their own, appended (with their references shifted)
         // when their slot comes.
         let mut parallel: [Option<Flat>; WIDTH] = Default::default();
-        let is_big =
-            |n: &BuildNode| matches!(n, BuildNode::Inner { .. }) && n.count() > PARALLEL_FLATTEN;
+        let is_big = |p: &Plan| !p.as_leaf() && p.node.count() > PARALLEL_FLATTEN;
         if slots.iter().filter(|n| is_big(n)).count() > 1 {
             use rayon::prelude::*;
-            let big: Vec<(usize, &BuildNode)> = slots
+            let big: Vec<(usize, &Plan)> = slots
                 .iter()
                 .enumerate()
                 .filter(|(_, n)| is_big(n))
@@ -220,33 +241,29 @@ impl Ctx<'_> {
                 .collect();
             let done: Vec<(usize, Flat)> = big
                 .into_par_iter()
-                .map(|(i, n)| (i, flatten(Some(n), self.order, self.geometry)))
+                .map(|(i, p)| (i, flatten_plan(p, self.order, self.geometry)))
                 .collect();
             for (i, f) in done {
                 parallel[i] = Some(f);
             }
         }
-        for (slot, node) in slots.iter().enumerate() {
-            let b = node.bounds();
+        for (slot, plan) in slots.iter().enumerate() {
+            let b = plan.node.bounds();
             for axis in 0..3 {
                 lo[axis][slot] = b.min[axis];
                 hi[axis][slot] = b.max[axis];
             }
-            child[slot] = match node {
-                BuildNode::Leaf { start, count, .. } => {
-                    self.emit_leaf(&self.order[*start as usize..(*start + *count) as usize])
-                }
-                BuildNode::Inner { .. } if parallel[slot].is_some() => {
-                    let sub = parallel[slot].take().unwrap();
-                    depth = depth.max(1 + sub.depth);
-                    self.append(sub)
-                }
-                BuildNode::Inner { .. } => {
-                    let c = ChildRef::node(self.flat.nodes.len() as u32);
-                    let (slots, n) = collapse_children(node);
-                    depth = depth.max(1 + self.emit_node(&slots[..n]));
-                    c
-                }
+            child[slot] = if plan.as_leaf() {
+                let start = plan.start as usize;
+                self.emit_leaf(&self.order[start..start + plan.node.count() as usize])
+            } else if let Some(sub) = parallel[slot].take() {
+                depth = depth.max(1 + sub.depth);
+                self.append(sub)
+            } else {
+                let c = ChildRef::node(self.flat.nodes.len() as u32);
+                let (slots, n) = wide_slots(plan);
+                depth = depth.max(1 + self.emit_node(&slots[..n]));
+                c
             };
         }
         let n = &mut self.flat.nodes[index];
@@ -323,5 +340,98 @@ pub(crate) fn slot_bounds(node: &WideNode, slot: usize) -> Aabb {
     Aabb {
         min: corner(0),
         max: corner(1),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::build::{self, BuildParams};
+    use crate::bvh::collapse::{C_NODE, C_PRIM};
+    use crate::ray::NO_HIT;
+    use crate::scene::{Spheres, Triangles};
+
+    /// The flattened tree is the plan: every triangle in exactly one leaf,
+    /// and its SAH cost (summed over the wide nodes and leaves actually
+    /// laid out) is the plan's least cost.
+    #[test]
+    fn layout_follows_the_plan() {
+        let mut state = 12345u32;
+        let mut next = move || {
+            state = state.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        for n in [1, 7, 9, 100, 3000] {
+            let mut positions = Vec::new();
+            let mut indices = Vec::new();
+            for t in 0..n as u32 {
+                let c = Vec3::new(next(), next(), next()) * 20.0;
+                for _ in 0..3 {
+                    positions.push(c + Vec3::new(next(), next(), next()) * 0.5);
+                }
+                indices.push([3 * t, 3 * t + 1, 3 * t + 2]);
+            }
+            let geometry = Geometry {
+                triangles: Triangles {
+                    positions,
+                    normals: Vec::new(),
+                    material: vec![0; n],
+                    indices,
+                    texcoords: Vec::new(),
+                },
+                spheres: Spheres::default(),
+            };
+            let bounds: Vec<Aabb> = (0..n as u32)
+                .map(|i| geometry.primitive_bounds(i))
+                .collect();
+            let params = BuildParams {
+                sah: true,
+                bins: 16,
+                traversal_cost: 2.0,
+                lanes: TRI_WIDTH,
+                max_leaf: 8,
+                top_slots: 0,
+            };
+            let (root, order) = build::build(&bounds, n as u32, params);
+            let root = root.unwrap();
+            let flat = flatten(Some(&root), &order, &geometry);
+
+            let root_area = root.bounds().surface_area();
+            let mut seen = vec![0; n];
+            let mut cost = C_NODE;
+            let mut stack = vec![0usize];
+            while let Some(index) = stack.pop() {
+                let node = &flat.nodes[index];
+                for slot in 0..WIDTH {
+                    let b = slot_bounds(node, slot);
+                    if b.min.x > b.max.x {
+                        continue; // empty slot
+                    }
+                    let area = b.surface_area() / root_area;
+                    let c = node.child[slot];
+                    if c.is_leaf() {
+                        let groups = &flat.tri_groups[c.index()..c.index() + c.count()];
+                        cost += area * C_PRIM * groups.len() as f32;
+                        for id in groups.iter().flat_map(|g| g.id).filter(|&id| id != NO_HIT) {
+                            seen[id as usize] += 1;
+                        }
+                    } else {
+                        cost += area * C_NODE;
+                        stack.push(c.index());
+                    }
+                }
+            }
+            assert!(seen.iter().all(|&s| s == 1), "{n} triangles: {seen:?}");
+            let plan = Plan::new(&root, 0, n as u32, &order);
+            let want = match root {
+                BuildNode::Inner { .. } => plan.wide,
+                // A lone leaf still gets a root node.
+                BuildNode::Leaf { .. } => C_NODE + plan.cost_as_slot(),
+            };
+            assert!(
+                (cost - want).abs() <= 1e-4 * want,
+                "{n} triangles: laid out {cost}, planned {want}"
+            );
+        }
     }
 }

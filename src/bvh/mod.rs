@@ -11,7 +11,10 @@
 //! * [`build`](self::build): a binary tree by binned SAH (or the textbook
 //!   midpoint split) over primitive bounds, triangles and spheres alike,
 //!   with rayon for the subtrees and the scans of large nodes.
-//! * [`flatten`](self::flatten): collapse into [`WIDTH`]-wide nodes whose
+//! * [`collapse`](self::collapse): which binary nodes become the slots of
+//!   each wide node — the collapse of least SAH cost, by dynamic
+//!   programming over the binary tree.
+//! * [`flatten`](self::flatten): lay that out as [`WIDTH`]-wide nodes whose
 //!   child boxes are stored lane-wise (one SIMD register per slab plane),
 //!   with 32-bit child references, and copy the triangles, in leaf order,
 //!   into groups of [`TRI_WIDTH`] in structure-of-arrays form. The `Bvh`
@@ -50,6 +53,7 @@
 
 mod build;
 mod bundle;
+mod collapse;
 mod flatten;
 mod packet;
 mod sphere;
