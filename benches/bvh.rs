@@ -274,11 +274,16 @@ fn ray_sets(w: &Workload, bvh: &Bvh) -> Vec<RaySet> {
     ]
 }
 
-/// Traces every batch of `set` with `bvh`, in parallel on the current pool.
+/// Traces every batch of `set` with `bvh`, in parallel on the current pool,
+/// one batch per task. `with_max_len(1)` matters: by default rayon splits
+/// the list into runs of about a quarter of it, and a run once started
+/// cannot be stolen, so with ~30 batches of unequal cost one thread sat
+/// idle for up to a third of a maxplanck shadow trace.
 fn trace(bvh: &Bvh, set: &RaySet, hits: &mut [Hits], occ: &mut [Vec<bool>]) {
     if set.shadow {
         set.batches
             .par_iter()
+            .with_max_len(1)
             .zip(occ.par_iter_mut())
             .for_each(|(rays, o)| {
                 bvh.occluded(rays, o, &mut TraversalStats::default());
@@ -286,6 +291,7 @@ fn trace(bvh: &Bvh, set: &RaySet, hits: &mut [Hits], occ: &mut [Vec<bool>]) {
     } else {
         set.batches
             .par_iter()
+            .with_max_len(1)
             .zip(hits.par_iter_mut())
             .for_each(|(rays, h)| {
                 bvh.intersect(rays, h, &mut TraversalStats::default(), None);
@@ -294,12 +300,14 @@ fn trace(bvh: &Bvh, set: &RaySet, hits: &mut [Hits], occ: &mut [Vec<bool>]) {
 }
 
 /// Traces every batch of `set` with Embree in `mode`, in parallel on the
-/// current pool (camera rays flagged coherent, the others incoherent).
+/// current pool, one batch per task as in [`trace`] (camera rays flagged
+/// coherent, the others incoherent).
 #[cfg(feature = "embree")]
 fn trace_embree(scene: &embree::Scene, set: &RaySet, mode: embree::Mode, hits: &mut [Hits]) {
     let coherent = set.kind == "primary";
     set.batches
         .par_iter()
+        .with_max_len(1)
         .zip(hits.par_iter_mut())
         .for_each(|(rays, h)| scene.trace(rays, set.shadow, coherent, mode, h));
 }
