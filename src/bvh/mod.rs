@@ -38,7 +38,7 @@
 //!
 //! Memory: a wide node is 256 bytes (8 × 6 bounds + 8 child references,
 //! cache-line aligned), a triangle group 320 bytes (9 coordinates and an id
-//! for each of 8 triangles). With the tuned SAH this comes to 56–74 bytes
+//! for each of 8 triangles). With the tuned SAH this comes to 51–65 bytes
 //! per triangle on the CS184 meshes and procedural meshes (see `PERF.md`).
 //!
 //! [`Accel::None`] skips the hierarchy and tests every primitive; it is the
