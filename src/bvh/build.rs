@@ -2,10 +2,10 @@
 //!
 //! The builder works on primitive *bounds* only, so triangles and spheres go
 //! through the same code. It produces a pointer-based binary tree plus a
-//! permutation of primitive ids; [`super::flatten`] then collapses that tree
-//! into the wide nodes traversal reads. Keeping the two steps apart lets the
-//! split heuristics stay simple binary code while the layout is free to be
-//! as wide as the SIMD unit.
+//! permutation of primitive ids; [`super::collapse`] and
+//! [`super::flatten`] then turn that tree into the wide nodes traversal
+//! reads. Keeping the steps apart lets the split heuristics stay simple
+//! binary code while the layout is free to be as wide as the SIMD unit.
 //!
 //! The binned SAH follows Wald, "On fast Construction of SAH-based Bounding
 //! Volume Hierarchies" (2007): centroids are dropped into equal-width bins
