@@ -39,6 +39,14 @@ pub(crate) const C_PRIM: f32 = 1.4;
 /// Subtrees above this many primitives plan their two children in parallel.
 const PARALLEL_PLAN: u32 = 1 << 12;
 
+/// Half the surface area of `node`'s box, in f64: finite for any finite
+/// coordinates (in f32 it overflows beyond about 1e19).
+fn half_area(node: &BuildNode) -> f64 {
+    let b = node.bounds();
+    let e = (b.max - b.min).as_dvec3();
+    e.x * e.y + e.y * e.z + e.z * e.x
+}
+
 /// The collapse plan of one binary subtree.
 pub(crate) struct Plan<'a> {
     pub node: &'a BuildNode,
@@ -55,17 +63,16 @@ pub(crate) struct Plan<'a> {
     split: [u8; WIDTH + 1],
     /// The subtree as one wide node: A(n)·C_NODE + dist(n, WIDTH)
     /// (∞ for a binary leaf).
-    pub wide: f32,
+    pub wide_cost: f32,
     children: Option<Box<[Plan<'a>; 2]>>,
 }
 
 impl<'a> Plan<'a> {
-    /// Plans `node`, whose leftmost primitive is `order[start]`; primitive
-    /// ids below `triangle_count` are triangles. `root_area` normalises
-    /// the areas.
-    pub fn new(node: &'a BuildNode, start: u32, triangle_count: u32, order: &[u32]) -> Plan<'a> {
-        let root_area = node.bounds().surface_area().max(f32::MIN_POSITIVE);
-        Self::subtree(node, start, triangle_count, order, root_area)
+    /// Plans the tree `root` whose leaves index `order`; primitive ids
+    /// below `triangle_count` are triangles.
+    pub fn new(root: &'a BuildNode, triangle_count: u32, order: &[u32]) -> Plan<'a> {
+        let root_area = half_area(root).max(f64::MIN_POSITIVE);
+        Self::subtree(root, 0, triangle_count, order, root_area)
     }
 
     fn subtree(
@@ -73,9 +80,10 @@ impl<'a> Plan<'a> {
         start: u32,
         triangle_count: u32,
         order: &[u32],
-        root_area: f32,
+        root_area: f64,
     ) -> Plan<'a> {
-        let area = node.bounds().surface_area() / root_area;
+        // Relative to the root's, so in [0, 1] and finite.
+        let area = (half_area(node) / root_area) as f32;
         match node {
             BuildNode::Leaf {
                 count,
@@ -96,7 +104,7 @@ impl<'a> Plan<'a> {
                     cost: [area * C_PRIM * tests as f32; WIDTH],
                     fewer: !0,
                     split: [0; WIDTH + 1],
-                    wide: f32::INFINITY,
+                    wide_cost: f32::INFINITY,
                     children: None,
                 }
             }
@@ -121,7 +129,9 @@ impl<'a> Plan<'a> {
                 // dist(n, j) for j = 2..=WIDTH, and the left share that
                 // achieves it.
                 let mut dist = [f32::INFINITY; WIDTH + 1];
-                let mut split = [0u8; WIDTH + 1];
+                // Each child takes at least one slot (areas are finite, so
+                // a comparison below always succeeds; 1 is a valid default).
+                let mut split = [1u8; WIDTH + 1];
                 for j in 2..=WIDTH {
                     for k in 1..j {
                         let c = left.cost[k - 1] + right.cost[j - k - 1];
@@ -155,7 +165,7 @@ impl<'a> Plan<'a> {
                     cost,
                     fewer,
                     split,
-                    wide,
+                    wide_cost: wide,
                     children: Some(Box::new([left, right])),
                 }
             }
@@ -165,7 +175,7 @@ impl<'a> Plan<'a> {
     /// Whether the subtree's one slot is best a leaf of all its primitives
     /// (always, for a binary leaf) rather than a wide node.
     pub fn as_leaf(&self) -> bool {
-        self.cost[0] < self.wide
+        self.children.is_none() || self.cost[0] < self.wide_cost
     }
 
     /// The least cost of the subtree in one slot (as a leaf or a wide node).
@@ -218,9 +228,11 @@ mod tests {
     use crate::scene::Aabb;
     use glam::Vec3;
 
-    /// Small random trees: `n` boxes, leaves of at most two primitives so
-    /// that the binary tree is deep enough for the choices to matter.
-    fn random_tree(seed: u32, n: usize) -> (BuildNode, Vec<u32>) {
+    /// Small random trees: `n` boxes around `scale`, the first
+    /// `triangles` of them triangles and the rest spheres, leaves of at
+    /// most two primitives so that the binary tree is deep enough for the
+    /// choices to matter.
+    fn random_tree(seed: u32, n: usize, triangles: u32, scale: f32) -> (BuildNode, Vec<u32>) {
         let mut state = seed.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
         let mut next = move || {
             state = state.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
@@ -231,8 +243,8 @@ mod tests {
                 let c = Vec3::new(next(), next(), next()) * 10.0;
                 let h = Vec3::new(next(), next(), next()) * 0.8 + Vec3::splat(0.01);
                 Aabb {
-                    min: c - h,
-                    max: c + h,
+                    min: (c - h) * scale,
+                    max: (c + h) * scale,
                 }
             })
             .collect();
@@ -244,7 +256,7 @@ mod tests {
             max_leaf: 2,
             top_slots: 0,
         };
-        let (root, order) = build::build(&boxes, n as u32, params);
+        let (root, order) = build::build(&boxes, triangles, params);
         (root.expect("boxes were given"), order)
     }
 
@@ -265,21 +277,27 @@ mod tests {
     }
 
     /// The least cost of `plan`'s subtree in one slot, by trying every
-    /// collapse: as a leaf where allowed, or as a wide node over each
-    /// frontier of its children.
-    fn exhaustive(plan: &Plan, root_area: f32, order: &[u32]) -> f32 {
+    /// collapse: as a leaf where allowed (one triangle group, or a binary
+    /// leaf as built), or as a wide node over each frontier of its
+    /// children. Ids from `triangles` on are spheres, one test each.
+    fn exhaustive(plan: &Plan, root_area: f32, order: &[u32], triangles: u32) -> f32 {
         let area = plan.node.bounds().surface_area() / root_area;
         let count = plan.node.count() as usize;
+        let prims = &order[plan.start as usize..plan.start as usize + count];
+        let all_triangles = prims.iter().all(|&id| id < triangles);
         let leaf = match plan.node {
-            BuildNode::Leaf { .. } => return area * C_PRIM * count.div_ceil(TRI_WIDTH) as f32,
-            BuildNode::Inner { .. } if count <= TRI_WIDTH => area * C_PRIM,
+            BuildNode::Leaf { .. } if all_triangles => {
+                return area * C_PRIM * count.div_ceil(TRI_WIDTH) as f32;
+            }
+            BuildNode::Leaf { .. } => return area * C_PRIM * count as f32,
+            BuildNode::Inner { .. } if all_triangles && count <= TRI_WIDTH => area * C_PRIM,
             BuildNode::Inner { .. } => f32::INFINITY,
         };
-        leaf.min(area * C_NODE + exhaustive_wide(plan, root_area, order))
+        leaf.min(area * C_NODE + exhaustive_wide(plan, root_area, order, triangles))
     }
 
     /// The least cost of the slots of a wide node made of interior `plan`.
-    fn exhaustive_wide(plan: &Plan, root_area: f32, order: &[u32]) -> f32 {
+    fn exhaustive_wide(plan: &Plan, root_area: f32, order: &[u32], triangles: u32) -> f32 {
         let [left, right] = plan.children().unwrap();
         let mut best = f32::INFINITY;
         for l in frontiers(left) {
@@ -288,7 +306,7 @@ mod tests {
                     let c = l
                         .iter()
                         .chain(&r)
-                        .map(|p| exhaustive(p, root_area, order))
+                        .map(|p| exhaustive(p, root_area, order, triangles))
                         .sum();
                     best = best.min(c);
                 }
@@ -297,22 +315,55 @@ mod tests {
         best
     }
 
+    /// Every subtree the plan turns into one leaf holds one kind.
+    fn assert_leaves_one_kind(plan: &Plan, order: &[u32], triangles: u32) {
+        if let Some(children) = plan.children() {
+            if plan.as_leaf() {
+                let start = plan.start as usize;
+                let prims = &order[start..start + plan.node.count() as usize];
+                assert!(prims.iter().all(|&id| id < triangles), "{prims:?}");
+            }
+            for c in children {
+                assert_leaves_one_kind(c, order, triangles);
+            }
+        }
+    }
+
     #[test]
     fn plan_is_the_least_cost_collapse() {
-        for seed in 0..12 {
-            let (root, order) = random_tree(seed, 18 + seed as usize);
-            let plan = Plan::new(&root, 0, order.len() as u32, &order);
+        for seed in 0..16 {
+            let n = 18 + seed as usize;
+            // Half the trees mix in spheres, which never share a leaf.
+            let triangles = if seed % 2 == 0 {
+                n as u32
+            } else {
+                n as u32 / 2
+            };
+            let (root, order) = random_tree(seed, n, triangles, 1.0);
+            let plan = Plan::new(&root, triangles, &order);
             let root_area = root.bounds().surface_area();
-            let want = C_NODE + exhaustive_wide(&plan, root_area, &order);
+            let want = C_NODE + exhaustive_wide(&plan, root_area, &order, triangles);
             assert!(
-                (plan.wide - want).abs() <= 1e-5 * want,
+                (plan.wide_cost - want).abs() <= 1e-5 * want,
                 "seed {seed}: plan {} vs exhaustive {want}",
-                plan.wide
+                plan.wide_cost
             );
             // The slots the plan hands out cost what it says.
             let (slots, n) = plan.slots();
             let sum: f32 = slots[..n].iter().map(|p| p.cost[0]).sum();
-            assert!((C_NODE + sum - plan.wide).abs() <= 1e-5 * plan.wide);
+            assert!((C_NODE + sum - plan.wide_cost).abs() <= 1e-5 * plan.wide_cost);
+            assert_leaves_one_kind(&plan, &order, triangles);
         }
+    }
+
+    /// Coordinates whose box areas overflow f32 still plan (areas are
+    /// taken in f64), into two to eight slots.
+    #[test]
+    fn huge_coordinates_plan() {
+        let (root, order) = random_tree(3, 40, 40, 1e30);
+        let plan = Plan::new(&root, 40, &order);
+        assert!(plan.wide_cost.is_finite());
+        let (_, n) = plan.slots();
+        assert!((2..=WIDTH).contains(&n));
     }
 }
