@@ -225,6 +225,7 @@ impl<'a> Plan<'a> {
 mod tests {
     use super::*;
     use crate::bvh::build::{self, BuildParams};
+    use crate::sampling::rng::{hash_words, to_unit_float};
     use crate::scene::Aabb;
     use glam::Vec3;
 
@@ -233,10 +234,10 @@ mod tests {
     /// most two primitives so that the binary tree is deep enough for the
     /// choices to matter.
     fn random_tree(seed: u32, n: usize, triangles: u32, scale: f32) -> (BuildNode, Vec<u32>) {
-        let mut state = seed.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+        let mut draw = 0;
         let mut next = move || {
-            state = state.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
-            (state >> 8) as f32 / (1u32 << 24) as f32
+            draw += 1;
+            to_unit_float(hash_words(&[seed, draw]))
         };
         let boxes: Vec<Aabb> = (0..n)
             .map(|_| {

@@ -352,6 +352,7 @@ mod tests {
     use crate::bvh::build::{self, BuildParams};
     use crate::bvh::collapse::{C_NODE, C_PRIM};
     use crate::ray::NO_HIT;
+    use crate::sampling::rng::{hash32, to_unit_float};
     use crate::scene::{Spheres, Triangles};
 
     /// The flattened tree is the plan: every triangle in exactly one leaf,
@@ -359,10 +360,10 @@ mod tests {
     /// laid out) is the plan's least cost.
     #[test]
     fn layout_follows_the_plan() {
-        let mut state = 12345u32;
+        let mut draw = 0;
         let mut next = move || {
-            state = state.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
-            (state >> 8) as f32 / (1u32 << 24) as f32
+            draw += 1;
+            to_unit_float(hash32(draw))
         };
         // 20,000 also takes the parallel paths (plan and flatten).
         for n in [1, 7, 9, 100, 3000, 20_000] {
