@@ -567,6 +567,17 @@ fn quick(w: &Workload) {
     }
 }
 
+/// Waits until the workers of the pool used last have gone to sleep.
+/// A rayon worker out of work spins, yielding, for a while before it
+/// sleeps; with two cores, a run started at once on the other pool
+/// shares a core with it. In the thread-scaling rounds the one-thread and
+/// all-thread runs alternate, and without this pause wavepath's runs were
+/// the ones that started right after a switch of pools (PERF.md,
+/// thirteenth session).
+fn settle() {
+    std::thread::sleep(std::time::Duration::from_millis(20));
+}
+
 /// `BVH_BENCH_PROFILE=threads`: how each ray set's trace rate grows from
 /// one thread to all, for wavepath and (with the `embree` feature) each of
 /// Embree's modes, all timed in wall clock, alternating, nine rounds each;
@@ -596,11 +607,13 @@ fn thread_scaling(w: &Workload) {
         let mut rates = vec![[Vec::new(), Vec::new()]; 1 + modes.len()];
         for _ in 0..9 {
             for (k, pool) in [&one, &all].into_iter().enumerate() {
+                settle();
                 let (_, wall) =
                     best_of(1, || pool.install(|| trace(&bvh, set, &mut hits, &mut occ)));
                 rates[0][k].push(n / wall);
                 #[cfg(feature = "embree")]
                 for (m, &mode) in modes.iter().enumerate() {
+                    settle();
                     let (_, wall) = best_of(1, || {
                         pool.install(|| trace_embree(&escene, set, mode, &mut hits))
                     });
