@@ -605,11 +605,8 @@ impl ClosestBatch<'_> {
         start: usize,
     ) {
         let end = (start + L::SLOTS * WIDTH).min(self.rays.len());
-        let mut best = [traverse::Closest::none(0.0); packet::MAX_RAYS];
-        for (b, &t_max) in best.iter_mut().zip(&self.rays.t_max[start..end]) {
-            *b = traverse::Closest::none(t_max);
-        }
-        let mut work = [traverse::Work::default(); packet::MAX_RAYS];
+        let mut best = traverse::ClosestLanes::none(&self.rays.t_max[start..end]);
+        let mut work = traverse::Work::default();
         let mut visits = 0;
         packet::closest(
             scene,
@@ -620,11 +617,9 @@ impl ClosestBatch<'_> {
             &mut work,
             &mut visits,
         );
-        for (i, c) in (start..end).zip(&best) {
-            self.hits.record(i, c);
-        }
+        self.hits.record_lanes(start..end, &best);
         self.nodes += slot_nodes(visits, active, end - start);
-        self.prims += work.iter().map(|w| w.prims as u64).sum::<u64>();
+        self.prims += u64::from(work.prims);
     }
 }
 
@@ -637,6 +632,22 @@ impl Hits {
             self.prim[i] = c.prim;
             self.u[i] = c.u;
             self.v[i] = c.v;
+        }
+    }
+
+    /// Stores the closest hits of rays `range` (lanes `0..` of `best`),
+    /// misses as [`reset`](Hits::reset) left them, without a branch per ray.
+    #[inline(always)]
+    fn record_lanes(&mut self, range: std::ops::Range<usize>, best: &traverse::ClosestLanes) {
+        let n = range.len();
+        let (t, prim) = (&mut self.t[range.clone()], &mut self.prim[range.clone()]);
+        let (u, v) = (&mut self.u[range.clone()], &mut self.v[range]);
+        for i in 0..n {
+            let hit = best.prim[i] != crate::ray::NO_HIT;
+            t[i] = if hit { best.t[i] } else { f32::INFINITY };
+            prim[i] = best.prim[i];
+            u[i] = if hit { best.u[i] } else { 0.0 };
+            v[i] = if hit { best.v[i] } else { 0.0 };
         }
     }
 }

@@ -35,10 +35,9 @@ use std::ops::{Add, Mul, Sub};
 use glam::Vec3;
 
 use super::flatten::{ChildRef, WideNode};
-use super::traverse::{Closest, Cull, Ray8Src, Scene, T_FAR_MARGIN, Work, slab_test};
+use super::traverse::{ClosestLanes, Cull, Ray8Src, Scene, T_FAR_MARGIN, Work, slab_test};
 use super::triangle::PacketTri;
 use super::{Lanes, WIDTH};
-use crate::lanes::Vec3x8;
 
 /// Batch slots (of [`WIDTH`] rays) in the widest packet.
 pub(crate) const MAX_SLOTS: usize = 2;
@@ -66,6 +65,8 @@ pub(crate) trait RayLanes:
     /// All-ones lanes where `self <= other`.
     fn le(self, other: Self) -> Self;
     fn bitmask(self) -> u32;
+    /// The value in lane `i`.
+    fn lane(self, i: usize) -> f32;
 }
 
 /// Implements [`RayLanes`] for `$t` (`$slots` batch slots, assembled from
@@ -98,6 +99,10 @@ macro_rules! ray_lanes {
             #[inline(always)]
             fn bitmask(self) -> u32 {
                 self.to_bitmask()
+            }
+            #[inline(always)]
+            fn lane(self, i: usize) -> f32 {
+                self.as_array()[i]
             }
         }
     };
@@ -132,14 +137,13 @@ pub(crate) fn new_packet_stack<L>() -> PacketStack<L> {
 /// its end) and are masked out everywhere.
 pub(crate) struct Packet<L> {
     o: [L; 3],
+    /// Directions, for the leaf tests of spheres (rare).
+    d: [L; 3],
     inv: [L; 3],
     /// Near plane per axis (0 = min corner), shared by every lane.
     near: [usize; 3],
     /// Absolute cull slack per lane (see `traverse::SLACK_ULPS`).
     slack: L,
-    /// Scalar origin and direction per lane, for the leaf tests.
-    org: [Vec3; MAX_RAYS],
-    dir: [Vec3; MAX_RAYS],
     /// Direction of the first active ray: orders the children.
     lead: Vec3,
     /// Triangle-test setup of the rays, per batch slot.
@@ -175,30 +179,31 @@ impl<L: RayLanes> Packet<L> {
             };
         }
         let mut o_slots = [[Lanes::ZERO; 3]; MAX_SLOTS];
-        let mut org = [Vec3::ZERO; MAX_RAYS];
-        let mut dir = [Vec3::ZERO; MAX_RAYS];
+        let mut d_slots = [[Lanes::ZERO; 3]; MAX_SLOTS];
         let mut tri = [PacketTri::default(); MAX_SLOTS];
         for (s, cull) in slots.iter().enumerate() {
             let (o, d) = rays.lanes(start + WIDTH * s);
-            let lanes = WIDTH * s..WIDTH * (s + 1);
-            org[lanes.clone()].copy_from_slice(&Vec3x8::new(o[0], o[1], o[2]).to_array());
-            dir[lanes.clone()].copy_from_slice(&Vec3x8::new(d[0], d[1], d[2]).to_array());
-            let org_slot: &[Vec3; WIDTH] = org[lanes].try_into().unwrap();
-            tri[s] = cull.packet_tri(cull.mask, &o, org_slot);
-            o_slots[s] = o;
+            tri[s] = cull.packet_tri(cull.mask, &o);
+            (o_slots[s], d_slots[s]) = (o, d);
         }
         debug_assert!(active != 0, "a packet has at least one ray");
+        let d = [0, 1, 2].map(|axis| L::from_slots(|s| d_slots[s][axis]));
         let packet = Packet {
             o: [0, 1, 2].map(|axis| L::from_slots(|s| o_slots[s][axis])),
+            d,
             inv: [0, 1, 2].map(|axis| L::from_slots(|s| slots[s].inv()[axis])),
             near,
             slack: L::from_slots(|s| slots[s].slack()),
-            org,
-            dir,
-            lead: dir[active.trailing_zeros() as usize],
+            lead: lane_vec(&d, active.trailing_zeros() as usize),
             tri,
         };
         Some((packet, active))
+    }
+
+    /// Origin and direction of the ray in lane `i`.
+    #[inline(always)]
+    fn ray(&self, i: usize) -> (Vec3, Vec3) {
+        (lane_vec(&self.o, i), lane_vec(&self.d, i))
     }
 
     /// Cull distance per lane for the current far ends `t_far`.
@@ -226,13 +231,17 @@ impl<L: RayLanes> Packet<L> {
 
     /// The far ends of the packet's rays: each one's nearest hit so far.
     #[inline(always)]
-    fn t_best(best: &[Closest; MAX_RAYS]) -> L {
+    fn t_best(best: &ClosestLanes) -> L {
         L::from_slots(|s| {
-            Lanes::from(std::array::from_fn::<f32, WIDTH, _>(|l| {
-                best[WIDTH * s + l].t
-            }))
+            Lanes::from(<[f32; WIDTH]>::try_from(&best.t[WIDTH * s..WIDTH * (s + 1)]).unwrap())
         })
     }
+}
+
+/// Lane `i` of a vector held lane-wise.
+#[inline(always)]
+fn lane_vec<L: RayLanes>(v: &[L; 3], i: usize) -> Vec3 {
+    Vec3::new(v[0].lane(i), v[1].lane(i), v[2].lane(i))
 }
 
 /// The slots of `node` that hold a child (empty ones have +∞ minimum corners).
@@ -264,18 +273,24 @@ fn descend<L: RayLanes>(
     let key = key.as_array();
     let mut masks = [0u32; WIDTH];
     let mut t_enter = [L::splat(0.0); WIDTH];
-    // Slots entered, insertion-sorted far to near.
-    let mut order = [0usize; WIDTH];
-    let mut n = 0;
+    // Every child's test first, without a branch on its outcome (about
+    // four in five tested boxes are entered by no ray, in no predictable
+    // pattern), then the slots entered.
+    let mut entered = 0u32;
     while slots != 0 {
         let slot = slots.trailing_zeros() as usize;
         slots &= slots - 1;
         let (m, t) = packet.test(node, slot, cull, mask);
-        if m == 0 {
-            continue;
-        }
         masks[slot] = m;
         t_enter[slot] = t;
+        entered |= u32::from(m != 0) << slot;
+    }
+    // Slots entered, insertion-sorted far to near.
+    let mut order = [0usize; WIDTH];
+    let mut n = 0;
+    while entered != 0 {
+        let slot = entered.trailing_zeros() as usize;
+        entered &= entered - 1;
         let mut j = n;
         while j > 0 && key[order[j - 1]] < key[slot] {
             order[j] = order[j - 1];
@@ -300,14 +315,14 @@ fn descend<L: RayLanes>(
 
 /// Closest hits of the packet's `active` rays. `best` holds each lane's
 /// initial `t_max` (and no hit) and receives the results; `work` the
-/// primitives each ray tested, `visits` the node visits summed over rays.
+/// primitives tested and `visits` the node visits, both summed over rays.
 pub(crate) fn closest<L: RayLanes>(
     scene: &Scene,
     stack: &mut PacketStack<L>,
     packet: &Packet<L>,
     active: u32,
-    best: &mut [Closest; MAX_RAYS],
-    work: &mut [Work; MAX_RAYS],
+    best: &mut ClosestLanes,
+    work: &mut Work,
     visits: &mut u64,
 ) {
     let mut t_best = Packet::<L>::t_best(best);
@@ -325,19 +340,18 @@ pub(crate) fn closest<L: RayLanes>(
         } else {
             if child.is_sphere() {
                 for i in crate::lanes::each(mask) {
-                    let ray = (packet.org[i], packet.dir[i]);
+                    let ray = packet.ray(i);
                     let tri = packet.tri[i / WIDTH].ray(i % WIDTH);
-                    scene.leaf_closest(child, ray, &tri, &mut best[i], &mut work[i]);
+                    let mut c = best.get(i);
+                    scene.leaf_closest(child, ray, &tri, &mut c, work);
+                    best.set(i, c);
                 }
             } else {
-                let slots = best
-                    .chunks_exact_mut(WIDTH)
-                    .zip(work.chunks_exact_mut(WIDTH));
-                for (s, (best, work)) in slots.enumerate().take(L::SLOTS) {
+                for s in 0..L::SLOTS {
                     let rays = (mask >> (WIDTH * s)) & 0xff;
                     if rays != 0 {
-                        let (best, work) = (best.try_into().unwrap(), work.try_into().unwrap());
-                        scene.leaf_closest_packet(child, rays, &packet.tri[s], best, work);
+                        let tri = &packet.tri[s];
+                        scene.leaf_closest_packet(child, rays, tri, (best, s), work);
                     }
                 }
             }

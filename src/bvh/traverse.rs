@@ -36,6 +36,7 @@ use glam::Vec3;
 use wide::i32x8;
 
 use super::flatten::{ChildRef, WideNode};
+use super::packet::MAX_RAYS;
 use super::packet::RayLanes;
 use super::sphere::{PackedSphere, intersect_sphere};
 use super::triangle::{
@@ -204,10 +205,10 @@ impl Cull {
     }
 
     /// Triangle-test setup of the rays in `active` as a packet; their
-    /// origins are `o` per axis and `org` per lane.
+    /// origins are `o` per axis.
     #[inline(always)]
-    pub fn packet_tri(&self, active: u32, o: &[Lanes; 3], org: &[Vec3; WIDTH]) -> PacketTri {
-        PacketTri::new(&self.tri, active, o, org)
+    pub fn packet_tri(&self, active: u32, o: &[Lanes; 3]) -> PacketTri {
+        PacketTri::new(&self.tri, active, o)
     }
 }
 
@@ -347,6 +348,52 @@ impl Closest {
     }
 }
 
+/// The closest hits so far of a packet's rays, structure of arrays: the
+/// packet's far ends load as one register, and the results store as a few
+/// vectors.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub(crate) struct ClosestLanes {
+    pub t: [f32; MAX_RAYS],
+    pub prim: [u32; MAX_RAYS],
+    pub u: [f32; MAX_RAYS],
+    pub v: [f32; MAX_RAYS],
+}
+
+impl ClosestLanes {
+    /// No hit yet on rays that end at `t_max` (lanes past its end: at 0).
+    #[inline(always)]
+    pub fn none(t_max: &[f32]) -> ClosestLanes {
+        let mut t = [0.0; MAX_RAYS];
+        t[..t_max.len()].copy_from_slice(t_max);
+        ClosestLanes {
+            t,
+            prim: [NO_HIT; MAX_RAYS],
+            u: [0.0; MAX_RAYS],
+            v: [0.0; MAX_RAYS],
+        }
+    }
+
+    /// The closest hit of ray `i` so far.
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> Closest {
+        Closest {
+            t: self.t[i],
+            prim: self.prim[i],
+            u: self.u[i],
+            v: self.v[i],
+        }
+    }
+
+    #[inline(always)]
+    pub fn set(&mut self, i: usize, c: Closest) {
+        self.t[i] = c.t;
+        self.prim[i] = c.prim;
+        self.u[i] = c.u;
+        self.v[i] = c.v;
+    }
+}
+
 /// Per-ray work counters.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Work {
@@ -440,18 +487,20 @@ impl Scene<'_> {
         leaf: ChildRef,
         rays: u32,
         tri: &PacketTri,
-        best: &mut [Closest; WIDTH],
-        work: &mut [Work; WIDTH],
+        (best, slot): (&mut ClosestLanes, usize),
+        work: &mut Work,
     ) {
         let n_rays = rays.count_ones();
+        let first = WIDTH * slot;
+        let t_slot = |best: &ClosestLanes| {
+            Lanes::from(<[f32; WIDTH]>::try_from(&best.t[first..first + WIDTH]).unwrap())
+        };
         for g in &self.tri_groups[leaf.index()..leaf.index() + leaf.count()] {
             let len = g.len();
-            for i in crate::lanes::each(rays) {
-                work[i].prims += len;
-            }
+            work.prims += len * n_rays;
             match tri {
                 PacketTri::Shared(packet) if n_rays > len => {
-                    let mut t_best = Lanes::from(best.map(|b| b.t));
+                    let mut t_best = t_slot(best);
                     for lane in 0..len as usize {
                         let h = intersect_rays(g, lane, packet, t_best);
                         let hit = h.mask & rays;
@@ -460,14 +509,18 @@ impl Scene<'_> {
                         }
                         let t = h.t.to_array();
                         for i in crate::lanes::each(hit) {
-                            best[i].offer(t[i], g.id[lane], &h, i);
+                            let mut c = best.get(first + i);
+                            c.offer(t[i], g.id[lane], &h, i);
+                            best.set(first + i, c);
                         }
-                        t_best = Lanes::from(best.map(|b| b.t));
+                        t_best = t_slot(best);
                     }
                 }
                 _ => {
                     for i in crate::lanes::each(rays) {
-                        group_closest(g, &tri.ray(i), &mut best[i]);
+                        let mut c = best.get(first + i);
+                        group_closest(g, &tri.ray(i), &mut c);
+                        best.set(first + i, c);
                     }
                 }
             }

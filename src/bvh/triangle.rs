@@ -224,17 +224,18 @@ impl Default for PacketTri {
 
 impl PacketTri {
     /// The setup of the rays in `active` of a batch slot whose
-    /// direction-only setup is `lanes` and origins are `o` (per axis and
-    /// per lane).
+    /// direction-only setup is `lanes` and origins are `o` (per axis).
     #[inline(always)]
-    pub fn new(lanes: &RayTriLanes, active: u32, o: &[Lanes; 3], org: &[Vec3; WIDTH]) -> PacketTri {
+    pub fn new(lanes: &RayTriLanes, active: u32, o: &[Lanes; 3]) -> PacketTri {
         match lanes.packet(active, o) {
             Some(shared) => PacketTri::Shared(shared),
             None => {
+                let o = o.map(Lanes::to_array);
+                let org = |lane: usize| Vec3::new(o[0][lane], o[1][lane], o[2][lane]);
                 // A plain loop: `array::from_fn` here was left as a call.
-                let mut tri = [lanes.ray(0, org[0]); WIDTH];
+                let mut tri = [lanes.ray(0, org(0)); WIDTH];
                 for (lane, t) in tri.iter_mut().enumerate().skip(1) {
-                    *t = lanes.ray(lane, org[lane]);
+                    *t = lanes.ray(lane, org(lane));
                 }
                 PacketTri::PerRay(tri)
             }
