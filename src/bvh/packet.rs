@@ -325,7 +325,9 @@ pub(crate) fn closest<L: RayLanes>(
     work: &mut Work,
     visits: &mut u64,
 ) {
-    let mut t_best = Packet::<L>::t_best(best);
+    // Cull distances for the rays' nearest hits so far (they change only
+    // at leaves).
+    let mut cull = packet.cull(Packet::<L>::t_best(best));
     stack.clear();
     let mut current = (scene.root, active);
     loop {
@@ -333,7 +335,7 @@ pub(crate) fn closest<L: RayLanes>(
         if !child.is_leaf() {
             let node = &scene.nodes[child.index()];
             *visits += u64::from(mask.count_ones());
-            if let Some(next) = descend(packet, node, mask, packet.cull(t_best), stack) {
+            if let Some(next) = descend(packet, node, mask, cull, stack) {
                 current = next;
                 continue;
             }
@@ -355,7 +357,7 @@ pub(crate) fn closest<L: RayLanes>(
                     }
                 }
             }
-            t_best = Packet::<L>::t_best(best);
+            cull = packet.cull(Packet::<L>::t_best(best));
         }
         // Pop the next entry some ray still needs: entered no farther than
         // that ray's nearest hit so far.
@@ -363,7 +365,7 @@ pub(crate) fn closest<L: RayLanes>(
             let Some(e) = stack.pop() else {
                 return;
             };
-            let m = e.mask & e.t_enter.le(packet.cull(t_best)).bitmask();
+            let m = e.mask & e.t_enter.le(cull).bitmask();
             if m != 0 {
                 current = (ChildRef(e.child), m);
                 break;
