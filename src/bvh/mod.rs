@@ -636,7 +636,8 @@ impl Hits {
     }
 
     /// Stores the closest hits of rays `range` (lanes `0..` of `best`),
-    /// misses as [`reset`](Hits::reset) left them, without a branch per ray.
+    /// misses stored as [`reset`](Hits::reset) stores them, without a
+    /// branch per ray.
     #[inline(always)]
     fn record_lanes(&mut self, range: std::ops::Range<usize>, best: &traverse::ClosestLanes) {
         let n = range.len();

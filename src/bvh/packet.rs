@@ -137,7 +137,8 @@ pub(crate) fn new_packet_stack<L>() -> PacketStack<L> {
 /// its end) and are masked out everywhere.
 pub(crate) struct Packet<L> {
     o: [L; 3],
-    /// Directions, for the leaf tests of spheres (rare).
+    /// Directions: the leading ray's orders the children; all are read
+    /// by the leaf tests of spheres (rare).
     d: [L; 3],
     inv: [L; 3],
     /// Near plane per axis (0 = min corner), shared by every lane.
@@ -232,9 +233,7 @@ impl<L: RayLanes> Packet<L> {
     /// The far ends of the packet's rays: each one's nearest hit so far.
     #[inline(always)]
     fn t_best(best: &ClosestLanes) -> L {
-        L::from_slots(|s| {
-            Lanes::from(<[f32; WIDTH]>::try_from(&best.t[WIDTH * s..WIDTH * (s + 1)]).unwrap())
-        })
+        L::from_slots(|s| best.t_slot(s))
     }
 }
 

@@ -374,6 +374,13 @@ impl ClosestLanes {
         }
     }
 
+    /// The nearest hits so far of the rays of batch slot `slot`.
+    #[inline(always)]
+    pub fn t_slot(&self, slot: usize) -> Lanes {
+        let first = WIDTH * slot;
+        Lanes::from(<[f32; WIDTH]>::try_from(&self.t[first..first + WIDTH]).unwrap())
+    }
+
     /// The closest hit of ray `i` so far.
     #[inline(always)]
     pub fn get(&self, i: usize) -> Closest {
@@ -394,7 +401,7 @@ impl ClosestLanes {
     }
 }
 
-/// Per-ray work counters.
+/// Work counters: one ray's, or summed over a packet's rays.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Work {
     pub nodes: u32,
@@ -475,7 +482,8 @@ impl Scene<'_> {
     }
 
     /// Tests the rays `rays` of one batch slot of a packet against the
-    /// triangle leaf `leaf`, narrowing each ray's `best`; `tri` is their
+    /// triangle leaf `leaf`, narrowing each ray's `best` (the slot's rays
+    /// are lanes `WIDTH · slot..` of it); `tri` is their
     /// triangle-test setup. When the rays share one permutation
     /// ([`PacketTri::Shared`]) and outnumber a group's triangles, the group
     /// is tested triangle by triangle against all rays at once (lanes =
@@ -492,15 +500,12 @@ impl Scene<'_> {
     ) {
         let n_rays = rays.count_ones();
         let first = WIDTH * slot;
-        let t_slot = |best: &ClosestLanes| {
-            Lanes::from(<[f32; WIDTH]>::try_from(&best.t[first..first + WIDTH]).unwrap())
-        };
         for g in &self.tri_groups[leaf.index()..leaf.index() + leaf.count()] {
             let len = g.len();
             work.prims += len * n_rays;
             match tri {
                 PacketTri::Shared(packet) if n_rays > len => {
-                    let mut t_best = t_slot(best);
+                    let mut t_best = best.t_slot(slot);
                     for lane in 0..len as usize {
                         let h = intersect_rays(g, lane, packet, t_best);
                         let hit = h.mask & rays;
@@ -513,7 +518,7 @@ impl Scene<'_> {
                             c.offer(t[i], g.id[lane], &h, i);
                             best.set(first + i, c);
                         }
-                        t_best = t_slot(best);
+                        t_best = best.t_slot(slot);
                     }
                 }
                 _ => {

@@ -35,6 +35,7 @@
 
 use glam::Vec3;
 
+use crate::lanes::Vec3x8;
 use crate::scene::Triangles;
 
 use super::{Lanes, TRI_WIDTH, TriLanes, WIDTH};
@@ -230,8 +231,8 @@ impl PacketTri {
         match lanes.packet(active, o) {
             Some(shared) => PacketTri::Shared(shared),
             None => {
-                let o = o.map(Lanes::to_array);
-                let org = |lane: usize| Vec3::new(o[0][lane], o[1][lane], o[2][lane]);
+                let o = Vec3x8::new(o[0], o[1], o[2]);
+                let org = |lane: usize| o.lane(lane);
                 // A plain loop: `array::from_fn` here was left as a call.
                 let mut tri = [lanes.ray(0, org(0)); WIDTH];
                 for (lane, t) in tri.iter_mut().enumerate().skip(1) {
