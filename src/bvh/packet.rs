@@ -343,9 +343,7 @@ pub(crate) fn closest<L: RayLanes>(
                 for i in crate::lanes::each(mask) {
                     let ray = packet.ray(i);
                     let tri = packet.tri[i / WIDTH].ray(i % WIDTH);
-                    let mut c = best.get(i);
-                    scene.leaf_closest(child, ray, &tri, &mut c, work);
-                    best.set(i, c);
+                    best.narrow(i, |c| scene.leaf_closest(child, ray, &tri, c, work));
                 }
             } else {
                 for s in 0..L::SLOTS {

@@ -381,23 +381,18 @@ impl ClosestLanes {
         Lanes::from(<[f32; WIDTH]>::try_from(&self.t[first..first + WIDTH]).unwrap())
     }
 
-    /// The closest hit of ray `i` so far.
+    /// Runs `narrow` on the closest hit of ray `i` so far, as a
+    /// [`Closest`], and keeps what it leaves.
     #[inline(always)]
-    pub fn get(&self, i: usize) -> Closest {
-        Closest {
+    pub fn narrow(&mut self, i: usize, narrow: impl FnOnce(&mut Closest)) {
+        let mut c = Closest {
             t: self.t[i],
             prim: self.prim[i],
             u: self.u[i],
             v: self.v[i],
-        }
-    }
-
-    #[inline(always)]
-    pub fn set(&mut self, i: usize, c: Closest) {
-        self.t[i] = c.t;
-        self.prim[i] = c.prim;
-        self.u[i] = c.u;
-        self.v[i] = c.v;
+        };
+        narrow(&mut c);
+        (self.t[i], self.prim[i], self.u[i], self.v[i]) = (c.t, c.prim, c.u, c.v);
     }
 }
 
@@ -514,18 +509,14 @@ impl Scene<'_> {
                         }
                         let t = h.t.to_array();
                         for i in crate::lanes::each(hit) {
-                            let mut c = best.get(first + i);
-                            c.offer(t[i], g.id[lane], &h, i);
-                            best.set(first + i, c);
+                            best.narrow(first + i, |c| c.offer(t[i], g.id[lane], &h, i));
                         }
                         t_best = best.t_slot(slot);
                     }
                 }
                 _ => {
                     for i in crate::lanes::each(rays) {
-                        let mut c = best.get(first + i);
-                        group_closest(g, &tri.ray(i), &mut c);
-                        best.set(first + i, c);
+                        best.narrow(first + i, |c| group_closest(g, &tri.ray(i), c));
                     }
                 }
             }

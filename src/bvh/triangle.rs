@@ -232,11 +232,10 @@ impl PacketTri {
             Some(shared) => PacketTri::Shared(shared),
             None => {
                 let o = Vec3x8::new(o[0], o[1], o[2]);
-                let org = |lane: usize| o.lane(lane);
                 // A plain loop: `array::from_fn` here was left as a call.
-                let mut tri = [lanes.ray(0, org(0)); WIDTH];
+                let mut tri = [lanes.ray(0, o.lane(0)); WIDTH];
                 for (lane, t) in tri.iter_mut().enumerate().skip(1) {
-                    *t = lanes.ray(lane, org(lane));
+                    *t = lanes.ray(lane, o.lane(lane));
                 }
                 PacketTri::PerRay(tri)
             }
