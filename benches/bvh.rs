@@ -9,6 +9,7 @@
 //! BVH_BENCH_QUICK=1 cargo bench --bench bvh --features embree  # plain table, see below
 //! BVH_BENCH_PROFILE=primary cargo bench --bench bvh   # one set, traced once, for a profiler
 //! BVH_BENCH_PROFILE=threads cargo bench --bench bvh --features embree  # 1→all-thread scaling
+//!                                        # (and the machine's own, from two FMA kernels)
 //! BVH_BENCH_EMBREE_CONFIG=verbose=2 …   # Embree prints its BVH statistics (SAH cost, nodes)
 //! ```
 //!
@@ -648,6 +649,58 @@ fn thread_scaling(w: &Workload) {
     }
 }
 
+/// How this machine itself scales from one thread to all, printed before
+/// and after the scenes in `BVH_BENCH_PROFILE=threads`: a trace's
+/// one-to-all ratio means little without it, and on a shared VM it changes
+/// from hour to hour. Two synthetic kernels of 16-lane fused
+/// multiply-adds, run once per thread of the pool (`broadcast`), alternating,
+/// nine rounds, medians: one dependent chain (bound by the FMA's latency)
+/// and sixteen independent chains (bound by FMA throughput). Both scale by
+/// the thread count on cores that are the run's own; when they do not, the
+/// host is busy and the traces' all-thread figures are depressed too (the
+/// throughput-bound kernel is the more sensitive: 1.1–1.85× in the noisy
+/// start of the fifteenth session, 1.94–1.99× later; PERF.md).
+fn machine_scaling(when: &str) {
+    fn kernel<const CHAINS: usize>(iterations: u32) -> f32 {
+        // Opaque constants, so the loop cannot be folded away.
+        let m = std::hint::black_box(wide::f32x16::splat(0.999_999));
+        let c = std::hint::black_box(wide::f32x16::splat(1e-7));
+        let mut x = [wide::f32x16::splat(1.0); CHAINS];
+        for _ in 0..iterations {
+            for v in &mut x {
+                *v = v.mul_add(m, c);
+            }
+        }
+        x.iter().map(|v| v.reduce_add()).sum()
+    }
+    let [(_, one), (_, all)] = pools();
+    type Kernel = fn() -> f32;
+    let kernels: [(&str, Kernel); 2] = [
+        ("latency-bound (1 FMA chain)", || kernel::<1>(100_000_000)),
+        ("throughput-bound (16 FMA chains)", || {
+            kernel::<16>(50_000_000)
+        }),
+    ];
+    for (name, run) in kernels {
+        let mut rates = [Vec::new(), Vec::new()];
+        for _ in 0..9 {
+            for (k, pool) in [&one, &all].into_iter().enumerate() {
+                settle();
+                let t0 = std::time::Instant::now();
+                let sums = pool.broadcast(|_| run());
+                let wall = t0.elapsed().as_secs_f64();
+                std::hint::black_box(sums);
+                rates[k].push(pool.current_num_threads() as f64 / wall);
+            }
+        }
+        let [r1, rn] = rates.map(|mut v| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        });
+        println!("machine at {when}, {name}: 1t → all {:.2}×", rn / r1);
+    }
+}
+
 /// The traces of [`profile`], in a function of their own so that a
 /// profiler can count them alone: building the ray sets traces the
 /// primary rays too (to find the surfaces the other sets start from).
@@ -671,6 +724,10 @@ fn main() {
     let mut c = Criterion::default().configure_from_args();
     let profiled = std::env::var("BVH_BENCH_PROFILE").ok();
     if std::env::var_os("BVH_BENCH_QUICK").is_some() || profiled.is_some() {
+        let threads = profiled.as_deref() == Some("threads");
+        if threads {
+            machine_scaling("start");
+        }
         let run = |w: &Workload| match profiled.as_deref() {
             Some("threads") => thread_scaling(w),
             Some(kind) => profile(w, kind),
@@ -691,6 +748,9 @@ fn main() {
             if wanted(&sphere_name(n)) {
                 run(&bumpy_sphere(n));
             }
+        }
+        if threads {
+            machine_scaling("end");
         }
         return;
     }
