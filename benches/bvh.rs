@@ -658,7 +658,7 @@ fn thread_scaling(w: &Workload) {
 /// and sixteen independent chains (bound by FMA throughput). Both scale by
 /// the thread count on cores that are the run's own; when they do not, the
 /// host is busy and the traces' all-thread figures are depressed too (the
-/// throughput-bound kernel is the more sensitive: 1.1–1.85× in the noisy
+/// throughput-bound kernel is the more sensitive: 1.1–1.9× in the noisy
 /// start of the fifteenth session, 1.94–1.99× later; PERF.md).
 fn machine_scaling(when: &str) {
     fn kernel<const CHAINS: usize>(iterations: u32) -> f32 {
