@@ -579,6 +579,12 @@ fn settle() {
     std::thread::sleep(std::time::Duration::from_millis(20));
 }
 
+/// The median of `v` (sorted in place; NaN if empty).
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
 /// `BVH_BENCH_PROFILE=threads`: how each ray set's trace rate grows from
 /// one thread to all, for wavepath and (with the `embree` feature) each of
 /// Embree's modes, all timed in wall clock, alternating, nine rounds each;
@@ -622,11 +628,10 @@ fn thread_scaling(w: &Workload) {
                 }
             }
         }
-        let median = |v: &mut Vec<f64>| {
-            v.sort_by(f64::total_cmp);
-            v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
-        };
-        let medians: Vec<[f64; 2]> = rates.iter_mut().map(|r| r.each_mut().map(median)).collect();
+        let medians: Vec<[f64; 2]> = rates
+            .iter_mut()
+            .map(|r| r.each_mut().map(|v| median(v)))
+            .collect();
         let mut row = format!("{} {:8} Mrays/s 1t → all:", w.name, set.kind);
         #[cfg(feature = "embree")]
         let names: Vec<&str> = std::iter::once("wavepath")
@@ -693,10 +698,7 @@ fn machine_scaling(when: &str) {
                 rates[k].push(pool.current_num_threads() as f64 / wall);
             }
         }
-        let [r1, rn] = rates.map(|mut v| {
-            v.sort_by(f64::total_cmp);
-            v[v.len() / 2]
-        });
+        let [r1, rn] = rates.each_mut().map(|v| median(v));
         println!("machine at {when}, {name}: 1t → all {:.2}×", rn / r1);
     }
 }

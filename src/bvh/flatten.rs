@@ -26,14 +26,12 @@
 //! box, since [`ChildRef::EMPTY`] shares its bits with a one-group leaf at
 //! index 0 (harmless in traversal, where such a slot is never entered).
 
-use glam::Vec3;
-
 use super::build::BuildNode;
 use super::collapse::Plan;
 use super::sphere::PackedSphere;
 use super::triangle::TriGroup;
 use super::{Lanes, TRI_WIDTH, WIDTH};
-use crate::scene::{Aabb, Geometry};
+use crate::scene::Geometry;
 
 /// One wide node: the bounds of up to [`WIDTH`] children, lane-wise.
 #[derive(Clone, Copy, Debug)]
@@ -336,16 +334,6 @@ pub(crate) fn pack_triangles(prims: &[u32], geometry: &Geometry) -> Vec<TriGroup
         .collect()
 }
 
-/// Bounds of a wide node's slot, for tests and statistics.
-#[allow(dead_code)]
-pub(crate) fn slot_bounds(node: &WideNode, slot: usize) -> Aabb {
-    let corner = |side: usize| Vec3::from(node.bounds.map(|b| b[side].as_array()[slot]));
-    Aabb {
-        min: corner(0),
-        max: corner(1),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -353,7 +341,17 @@ mod tests {
     use crate::bvh::collapse::{C_NODE, C_PRIM};
     use crate::ray::NO_HIT;
     use crate::sampling::rng::{hash32, to_unit_float};
-    use crate::scene::{Spheres, Triangles};
+    use crate::scene::{Aabb, Spheres, Triangles};
+    use glam::Vec3;
+
+    /// Bounds of a wide node's slot.
+    fn slot_bounds(node: &WideNode, slot: usize) -> Aabb {
+        let corner = |side: usize| Vec3::from(node.bounds.map(|b| b[side].as_array()[slot]));
+        Aabb {
+            min: corner(0),
+            max: corner(1),
+        }
+    }
 
     /// The flattened tree is the plan: every triangle in exactly one leaf,
     /// and its SAH cost (summed over the wide nodes and leaves actually

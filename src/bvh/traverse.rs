@@ -36,8 +36,7 @@ use glam::Vec3;
 use wide::i32x8;
 
 use super::flatten::{ChildRef, WideNode};
-use super::packet::MAX_RAYS;
-use super::packet::RayLanes;
+use super::packet::{MAX_RAYS, RayLanes};
 use super::sphere::{PackedSphere, intersect_sphere};
 use super::triangle::{
     GroupHit, PacketTri, RayTri, RayTriLanes, TriGroup, intersect_group, intersect_rays,
