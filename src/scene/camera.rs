@@ -7,6 +7,9 @@
 //! that rule exactly is what makes our images frame like the reference.
 
 use glam::{Mat3, Vec3};
+use wide::f32x8;
+
+use crate::lanes::Vec3x8;
 
 /// Width and height of the screen the reference fits the field of view to.
 pub const FIT_WIDTH: f32 = 800.0;
@@ -127,9 +130,23 @@ impl Camera {
     /// film position `(fx, fy)` in pixels, y = 0 at the bottom row.
     #[inline]
     pub fn direction(&self, view: &CameraView, fx: f32, fy: f32) -> Vec3 {
-        let sx = (2.0 * fx / view.width as f32 - 1.0) * view.tan_half_hfov;
-        let sy = (2.0 * fy / view.height as f32 - 1.0) * view.tan_half_vfov;
-        self.camera_to_world * Vec3::new(sx, sy, -1.0)
+        self.directions_x8(view, f32x8::splat(fx), f32x8::splat(fy))
+            .lane(0)
+    }
+
+    /// [`direction`](Self::direction) through eight film positions at
+    /// once, one per lane.
+    #[inline]
+    pub fn directions_x8(&self, view: &CameraView, fx: f32x8, fy: f32x8) -> Vec3x8 {
+        // Film position → [−1, 1] across the view → the screen at z = −1.
+        let screen = |f: f32x8, size: u32, tan_half_fov: f32| {
+            (f32x8::splat(2.0) * f / f32x8::splat(size as f32) - f32x8::ONE)
+                * f32x8::splat(tan_half_fov)
+        };
+        let sx = screen(fx, view.width, view.tan_half_hfov);
+        let sy = screen(fy, view.height, view.tan_half_vfov);
+        let m = &self.camera_to_world;
+        Vec3x8::splat(m.x_axis) * sx + Vec3x8::splat(m.y_axis) * sy - Vec3x8::splat(m.z_axis)
     }
 }
 

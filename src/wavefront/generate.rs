@@ -4,7 +4,12 @@
 //! samples; the pass's work items are numbered pixel-major, and each item
 //! owns one result slot. Waves take items in order until full.
 
+use glam::Vec3;
+use wide::f32x8;
+
 use crate::film::Tile;
+use crate::lanes::{LANES, Vec3x8};
+use crate::sampling::SampleStream;
 use crate::sampling::rng::{new_streams, pixel_offsets};
 use crate::sampling::warp;
 use crate::scene::{Camera, CameraView};
@@ -79,58 +84,67 @@ pub fn refill(
     let mut pixel = queue.pixel(active);
     // Eight samples at a time: their pixel offsets are drawn together,
     // one Sobol point per vector lane (a long chain of dependent integer
-    // operations each, drawn one by one before).
-    for first in (queue.next..end).step_by(8) {
-        let items = first..(first + 8).min(end);
-        let mut pixels = [(0u32, 0u32); 8];
-        let (mut pixel_ids, mut samples) = ([0u32; 8], [0u32; 8]);
-        for k in 0..items.len() {
+    // operations each, drawn one by one before), and their rays computed
+    // and appended in vector lanes.
+    let camera = cam.camera;
+    let t_max = camera.zfar - camera.znear;
+    for first in (queue.next..end).step_by(LANES) {
+        let n = (end - first).min(LANES);
+        let mut slots = [0u32; LANES];
+        let (mut pixel_ids, mut samples) = ([0u32; LANES], [0u32; LANES]);
+        let (mut xs, mut ys) = ([0f32; LANES], [0f32; LANES]);
+        for k in 0..n {
             if sample == spp {
                 (active, sample) = (active + 1, 0);
                 pixel = queue.pixel(active);
             }
             let (x, row) = pixel;
+            slots[k] = (first + k) as u32;
             samples[k] = queue.first_sample + sample as u32;
-            pixels[k] = pixel;
             pixel_ids[k] = row * width + x;
+            // Film rows run top-down; the camera's y = 0 is the bottom row.
+            (xs[k], ys[k]) = (x as f32, (height - 1 - row) as f32);
             sample += 1;
         }
-        let streams = new_streams(cam.seed, pixel_ids, samples);
-        let n = items.len();
+        let mut streams = new_streams(cam.seed, pixel_ids, samples);
         let (us, vs) = if cam.pixel_centre {
-            ([0.5; 8], [0.5; 8])
+            ([0.5; LANES], [0.5; LANES])
         } else {
             pixel_offsets(&streams[..n])
         };
-        for (k, item) in items.enumerate() {
-            let (x, row) = pixels[k];
-            let mut stream = streams[k];
-            // Film rows run top-down; the camera's y = 0 is the bottom row.
-            let y = height - 1 - row;
-            let dir = cam
-                .camera
-                .direction(&cam.view, x as f32 + us[k], y as f32 + vs[k]);
-            // Start at the near plane along the view axis: t ∈ [znear, zfar]
-            // for a direction whose camera-space z is −1.
-            let (origin, dir) = if cam.lens_radius > 0.0 {
-                // Thin lens: aim from a point on the aperture at where the
-                // pinhole ray meets the plane in focus (camera-space z = −d).
-                let focus = cam.camera.position + cam.focal_distance * dir;
-                let (lu, lv) = stream.next_2d();
-                let disk = warp::concentric_disk(lu, lv) * cam.lens_radius;
-                let lens = cam.camera.position
-                    + cam.camera.camera_to_world * glam::Vec3::new(disk.x, disk.y, 0.0);
-                (lens, (focus - lens) / cam.focal_distance)
-            } else {
-                (cam.camera.position, dir)
-            };
-            let origin = origin + cam.camera.znear * dir;
-            let t_max = cam.camera.zfar - cam.camera.znear;
-            paths.push(item as u32, stream, origin, dir, t_max);
-        }
+        let (fx, fy) = (
+            f32x8::from(xs) + f32x8::from(us),
+            f32x8::from(ys) + f32x8::from(vs),
+        );
+        let dir = camera.directions_x8(&cam.view, fx, fy);
+        let (origin, dir) = if cam.lens_radius > 0.0 {
+            thin_lens(cam, &mut streams[..n], dir)
+        } else {
+            (Vec3x8::splat(camera.position), dir)
+        };
+        // Start at the near plane along the view axis: t ∈ [znear, zfar]
+        // for a direction whose camera-space z is −1.
+        let origin = origin + dir * f32x8::splat(camera.znear);
+        paths.start(n, (&slots, &streams), (origin, dir), t_max);
     }
     queue.next += take;
     take
+}
+
+/// Thin lens: rays from points on the aperture (one 2D draw of each
+/// path's stream) through where the pinhole rays `pinhole` meet the plane
+/// in focus (camera-space z = −d), for the lanes of `streams`.
+fn thin_lens(cam: &CameraRays, streams: &mut [SampleStream], pinhole: Vec3x8) -> (Vec3x8, Vec3x8) {
+    let camera = cam.camera;
+    let (mut origin, mut dir) = ([Vec3::ZERO; LANES], [Vec3::ZERO; LANES]);
+    for (k, stream) in streams.iter_mut().enumerate() {
+        let focus = camera.position + cam.focal_distance * pinhole.lane(k);
+        let (lu, lv) = stream.next_2d();
+        let disk = warp::concentric_disk(lu, lv) * cam.lens_radius;
+        let lens = camera.position + camera.camera_to_world * Vec3::new(disk.x, disk.y, 0.0);
+        (origin[k], dir[k]) = (lens, (focus - lens) / cam.focal_distance);
+    }
+    (Vec3x8::gather(&origin), Vec3x8::gather(&dir))
 }
 
 #[cfg(test)]

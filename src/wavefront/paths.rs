@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 
-use crate::lanes;
+use crate::lanes::{self, LANES, Vec3x8};
 use crate::ray::Rays;
 use crate::sampling::SampleStream;
 
@@ -48,24 +48,38 @@ impl Paths {
         self.slot.is_empty()
     }
 
-    /// Starts a path with a camera ray.
+    /// Starts `n` (at most eight) paths with camera rays: path `k` gets
+    /// result slot `slots[k]`, sample stream `streams[k]` and the ray in
+    /// lane `k` of `origin` and `direction`, ending at `t_max`. Whole
+    /// groups of eight are fixed-size copies, as in [`ShadowWriter`].
     #[inline]
-    pub fn push(
+    pub fn start(
         &mut self,
-        slot: u32,
-        stream: SampleStream,
-        origin: Vec3,
-        direction: Vec3,
+        n: usize,
+        (slots, streams): (&[u32; LANES], &[SampleStream; LANES]),
+        (origin, direction): (Vec3x8, Vec3x8),
         t_max: f32,
     ) {
-        self.slot.push(slot);
-        self.stream.push(stream);
-        self.throughput.push(Vec3::ONE);
-        self.radiance.push(Vec3::ZERO);
-        self.depth.push(0);
-        self.specular.push(false);
-        self.alive.push(true);
-        self.rays.push(origin, direction, t_max);
+        lanes::extend(&mut self.slot, slots, n);
+        lanes::extend(&mut self.stream, streams, n);
+        lanes::extend(&mut self.throughput, &[Vec3::ONE; LANES], n);
+        lanes::extend(&mut self.radiance, &[Vec3::ZERO; LANES], n);
+        lanes::extend(&mut self.depth, &[0; LANES], n);
+        lanes::extend(&mut self.specular, &[false; LANES], n);
+        lanes::extend(&mut self.alive, &[true; LANES], n);
+        let [ox, oy, oz, dx, dy, dz, t] = self.rays.components_mut();
+        let components = [
+            origin.x,
+            origin.y,
+            origin.z,
+            direction.x,
+            direction.y,
+            direction.z,
+        ];
+        for (component, values) in [ox, oy, oz, dx, dy, dz].into_iter().zip(components) {
+            lanes::extend(component, &values.to_array(), n);
+        }
+        lanes::extend(t, &[t_max; LANES], n);
     }
 
     /// Moves path `from` to index `to` (`to < from`), overwriting it.
