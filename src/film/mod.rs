@@ -69,16 +69,26 @@ impl TileFilm {
         }
     }
 
-    /// Adds one radiance sample to local pixel `i`.
+    /// Adds radiance samples to local pixel `i`, in order. The sums run in
+    /// registers and are stored once: the samples of a pixel come
+    /// together, and summing straight into the film made every addition
+    /// wait for the store of the one before (the same additions, in the
+    /// same order, so the same bits).
     #[inline]
-    pub fn add(&mut self, i: usize, radiance: Vec3) {
-        let x = illuminance(radiance) as f64;
-        self.sum[i] += radiance;
-        let r = radiance.as_dvec3();
-        self.sum_sq[i] += r * r;
-        self.count[i] += 1;
-        self.illum_sum[i] += x;
-        self.illum_sq_sum[i] += x * x;
+    pub fn add(&mut self, i: usize, samples: &[Vec3]) {
+        let (mut sum, mut sum_sq) = (self.sum[i], self.sum_sq[i]);
+        let (mut illum_sum, mut illum_sq_sum) = (self.illum_sum[i], self.illum_sq_sum[i]);
+        for &radiance in samples {
+            let x = illuminance(radiance) as f64;
+            sum += radiance;
+            let r = radiance.as_dvec3();
+            sum_sq += r * r;
+            illum_sum += x;
+            illum_sq_sum += x * x;
+        }
+        (self.sum[i], self.sum_sq[i]) = (sum, sum_sq);
+        (self.illum_sum[i], self.illum_sq_sum[i]) = (illum_sum, illum_sq_sum);
+        self.count[i] += samples.len() as u32;
     }
 }
 

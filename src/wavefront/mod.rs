@@ -296,9 +296,7 @@ impl<'a> Renderer<'a> {
             let t = Instant::now();
             for (a, &pixel) in active.iter().enumerate() {
                 let base = a * n_pass as usize;
-                for &radiance in &slots[base..base + n_pass as usize] {
-                    film.add(pixel as usize, radiance);
-                }
+                film.add(pixel as usize, &slots[base..base + n_pass as usize]);
             }
             taken += n_pass;
             if let Some(adaptive) = settings.adaptive {
