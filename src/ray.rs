@@ -91,6 +91,16 @@ impl Rays {
         self.t_max.push(t_max);
     }
 
+    /// Appends the first `n` of eight rays held lane-wise.
+    #[inline]
+    pub fn extend_lanes(&mut self, n: usize, origin: Vec3x8, direction: Vec3x8, t_max: f32x8) {
+        let (o, d) = (origin, direction);
+        let values = [o.x, o.y, o.z, d.x, d.y, d.z, t_max];
+        for (component, lane_values) in self.components_mut().into_iter().zip(values) {
+            lanes::extend(component, &lane_values.to_array(), n);
+        }
+    }
+
     #[inline]
     pub fn origin(&self, i: usize) -> Vec3 {
         Vec3::new(self.org_x[i], self.org_y[i], self.org_z[i])

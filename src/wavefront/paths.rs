@@ -1,6 +1,7 @@
 //! The state of the paths in flight, as structure of arrays.
 
 use glam::Vec3;
+use wide::f32x8;
 
 use crate::lanes::{self, LANES, Vec3x8};
 use crate::ray::Rays;
@@ -67,19 +68,8 @@ impl Paths {
         lanes::extend(&mut self.depth, &[0; LANES], n);
         lanes::extend(&mut self.specular, &[false; LANES], n);
         lanes::extend(&mut self.alive, &[true; LANES], n);
-        let [ox, oy, oz, dx, dy, dz, t] = self.rays.components_mut();
-        let components = [
-            origin.x,
-            origin.y,
-            origin.z,
-            direction.x,
-            direction.y,
-            direction.z,
-        ];
-        for (component, values) in [ox, oy, oz, dx, dy, dz].into_iter().zip(components) {
-            lanes::extend(component, &values.to_array(), n);
-        }
-        lanes::extend(t, &[t_max; LANES], n);
+        self.rays
+            .extend_lanes(n, origin, direction, f32x8::splat(t_max));
     }
 
     /// Moves path `from` to index `to` (`to < from`), overwriting it.
