@@ -159,3 +159,44 @@ impl Image {
         self.pixels[(y * self.width + x) as usize]
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Samples added in runs of any length leave the same statistics as
+    /// the samples added one by one, in the same order.
+    #[test]
+    fn runs_of_samples_add_up_like_single_samples() {
+        let tile = Tile {
+            x0: 0,
+            y0: 0,
+            width: 2,
+            height: 1,
+        };
+        let samples: Vec<Vec3> = (0..7)
+            .map(|k| Vec3::new(0.1 * k as f32, 1.0 / (k + 1) as f32, 3.0 - 0.3 * k as f32))
+            .collect();
+        let mut one_by_one = TileFilm::new(tile);
+        for &s in &samples {
+            one_by_one.add(1, &[s]);
+        }
+        let mut in_runs = TileFilm::new(tile);
+        in_runs.add(1, &samples[..3]);
+        in_runs.add(1, &[]);
+        in_runs.add(1, &samples[3..]);
+        for film in [&one_by_one, &in_runs] {
+            assert_eq!((film.count[0], film.count[1]), (0, 7));
+            assert_eq!(film.sum[0], Vec3::ZERO);
+        }
+        assert_eq!(in_runs.sum[1], one_by_one.sum[1]);
+        assert_eq!(in_runs.sum_sq[1], one_by_one.sum_sq[1]);
+        assert_eq!(in_runs.illum_sum[1], one_by_one.illum_sum[1]);
+        assert_eq!(in_runs.illum_sq_sum[1], one_by_one.illum_sq_sum[1]);
+        // And they are the sums they stand for.
+        let sum: Vec3 = samples.iter().sum();
+        assert!((in_runs.sum[1] - sum).abs().max_element() < 1e-5);
+        let illum: f64 = samples.iter().map(|&s| illuminance(s) as f64).sum();
+        assert!((in_runs.illum_sum[1] - illum).abs() < 1e-9);
+    }
+}

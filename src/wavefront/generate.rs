@@ -207,6 +207,17 @@ mod tests {
                         paths.stream[k], expected,
                         "spp {spp}, waves of {wave}, item {item}"
                     );
+                    // The ray through the sample's own film position (rows
+                    // flipped: the camera's y = 0 is the bottom row), from
+                    // the near plane, with the whole near-to-far range.
+                    let (u, v) = expected.pixel_offset();
+                    let d = camera.direction(&cam.view, x as f32 + u, (height - 1 - y) as f32 + v);
+                    assert_eq!(paths.rays.direction(k), d, "item {item}");
+                    assert_eq!(paths.rays.origin(k), camera.znear * d);
+                    assert_eq!(paths.rays.t_max[k], camera.zfar - camera.znear);
+                    assert_eq!(paths.throughput[k], Vec3::ONE);
+                    assert_eq!(paths.radiance[k], Vec3::ZERO);
+                    assert!(paths.alive[k] && paths.depth[k] == 0 && !paths.specular[k]);
                 }
                 seen += taken;
             }
