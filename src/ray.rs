@@ -7,7 +7,7 @@
 use glam::Vec3;
 use wide::{f32x8, i32x8};
 
-use crate::lanes::{self, Vec3x8};
+use crate::lanes::{self, LANES, Vec3x8};
 
 /// Sentinel primitive id meaning "no hit".
 pub const NO_HIT: u32 = u32::MAX;
@@ -91,14 +91,21 @@ impl Rays {
         self.t_max.push(t_max);
     }
 
+    /// Appends the first `n` of eight rays given component by component
+    /// (origin x, y, z, direction x, y, z, `t_max`; one array each).
+    #[inline]
+    pub fn extend_arrays(&mut self, n: usize, components: &[[f32; LANES]; 7]) {
+        for (component, values) in self.components_mut().into_iter().zip(components) {
+            lanes::extend(component, values, n);
+        }
+    }
+
     /// Appends the first `n` of eight rays held lane-wise.
     #[inline]
     pub fn extend_lanes(&mut self, n: usize, origin: Vec3x8, direction: Vec3x8, t_max: f32x8) {
         let (o, d) = (origin, direction);
-        let values = [o.x, o.y, o.z, d.x, d.y, d.z, t_max];
-        for (component, lane_values) in self.components_mut().into_iter().zip(values) {
-            lanes::extend(component, &lane_values.to_array(), n);
-        }
+        let lanes = [o.x, o.y, o.z, d.x, d.y, d.z, t_max];
+        self.extend_arrays(n, &lanes.map(f32x8::to_array));
     }
 
     #[inline]

@@ -69,13 +69,12 @@ impl TileFilm {
         }
     }
 
-    /// Adds radiance samples to local pixel `i`, in order. The sums run in
-    /// registers and are stored once: the samples of a pixel come
-    /// together, and summing straight into the film made every addition
-    /// wait for the store of the one before (the same additions, in the
-    /// same order, so the same bits).
+    /// Adds radiance samples to local pixel `i`, in order.
     #[inline]
     pub fn add(&mut self, i: usize, samples: &[Vec3]) {
+        // The sums run in registers and are stored once: summed straight
+        // into the film, every addition waited for the store of the one
+        // before. The same additions in the same order, so the same bits.
         let (mut sum, mut sum_sq) = (self.sum[i], self.sum_sq[i]);
         let (mut illum_sum, mut illum_sq_sum) = (self.illum_sum[i], self.illum_sq_sum[i]);
         for &radiance in samples {

@@ -145,6 +145,9 @@ impl Camera {
         };
         let sx = screen(fx, view.width, view.tan_half_hfov);
         let sy = screen(fy, view.height, view.tan_half_vfov);
+        // `camera_to_world * (sx, sy, −1)` in the order glam's `Mat3 * Vec3`
+        // adds the columns; subtracting the z column is adding it times −1
+        // exactly, so a lane holds what that product gives.
         let m = &self.camera_to_world;
         Vec3x8::splat(m.x_axis) * sx + Vec3x8::splat(m.y_axis) * sy - Vec3x8::splat(m.z_axis)
     }
@@ -157,5 +160,40 @@ impl CameraView {
             2.0 * self.tan_half_hfov.atan().to_degrees(),
             2.0 * self.tan_half_vfov.atan().to_degrees(),
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every lane of `directions_x8` holds, bit for bit, the product
+    /// `camera_to_world · (sx, sy, −1)` for its own film position, and the
+    /// scalar `direction` is that lane.
+    #[test]
+    fn lane_directions_are_the_matrix_product_bit_for_bit() {
+        let camera = Camera {
+            position: Vec3::new(1.0, 2.0, -3.0),
+            target: Vec3::ZERO,
+            camera_to_world: Mat3::from_axis_angle(Vec3::new(0.3, -1.0, 0.5).normalize(), 0.7),
+            screen_distance: 437.0,
+            znear: 0.01,
+            zfar: 100.0,
+        };
+        let view = camera.view(97, 61);
+        let fx = [0.0, 0.5, 13.25, 48.5, 96.99, 3.0, 70.125, 1e-3];
+        let fy = [60.99, 0.0, 30.5, 7.75, 0.25, 59.0, 12.0, 44.4];
+        let lanes = camera.directions_x8(&view, f32x8::from(fx), f32x8::from(fy));
+        for l in 0..8 {
+            let sx = (2.0 * fx[l] / view.width as f32 - 1.0) * view.tan_half_hfov;
+            let sy = (2.0 * fy[l] / view.height as f32 - 1.0) * view.tan_half_vfov;
+            let expected = (camera.camera_to_world * Vec3::new(sx, sy, -1.0)).to_array();
+            let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+            assert_eq!(bits(lanes.lane(l)), expected.map(f32::to_bits), "lane {l}");
+            assert_eq!(
+                bits(camera.direction(&view, fx[l], fy[l])),
+                bits(lanes.lane(l))
+            );
+        }
     }
 }

@@ -48,7 +48,7 @@ pub fn compact(paths: &mut Paths, slots: &mut [Vec3]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lanes::Vec3x8;
+    use crate::lanes::{LANES, Vec3x8};
     use crate::sampling::SampleStream;
 
     /// Every dead path's radiance lands in its slot, and the live paths
@@ -68,9 +68,9 @@ mod tests {
             let mut paths = Paths::default();
             for (k, &a) in alive.iter().enumerate() {
                 let f = k as f32;
-                let stream = [SampleStream::new(3, k as u32, 0); 8];
+                let stream = [SampleStream::new(3, k as u32, 0); LANES];
                 let (origin, dir) = (Vec3x8::splat(Vec3::splat(f)), Vec3x8::splat(Vec3::X));
-                paths.start(1, (&[k as u32; 8], &stream), (origin, dir), f + 1.0);
+                paths.start(1, &[k as u32; LANES], &stream, origin, dir, f + 1.0);
                 paths.radiance[k] = Vec3::new(f, 2.0 * f, 1.0);
                 paths.depth[k] = k as u32;
                 paths.alive[k] = a;

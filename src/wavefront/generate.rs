@@ -125,7 +125,7 @@ pub fn refill(
         // Start at the near plane along the view axis: t ∈ [znear, zfar]
         // for a direction whose camera-space z is −1.
         let origin = origin + dir * f32x8::splat(camera.znear);
-        paths.start(n, (&slots, &streams), (origin, dir), t_max);
+        paths.start(n, &slots, &streams, origin, dir, t_max);
     }
     queue.next += take;
     take
@@ -133,7 +133,8 @@ pub fn refill(
 
 /// Thin lens: rays from points on the aperture (one 2D draw of each
 /// path's stream) through where the pinhole rays `pinhole` meet the plane
-/// in focus (camera-space z = −d), for the lanes of `streams`.
+/// in focus (camera-space z = −`focal_distance`), for the lanes of
+/// `streams`; lanes past `streams.len()` are zero.
 fn thin_lens(cam: &CameraRays, streams: &mut [SampleStream], pinhole: Vec3x8) -> (Vec3x8, Vec3x8) {
     let camera = cam.camera;
     let (mut origin, mut dir) = ([Vec3::ZERO; LANES], [Vec3::ZERO; LANES]);
@@ -150,31 +151,25 @@ fn thin_lens(cam: &CameraRays, streams: &mut [SampleStream], pinhole: Vec3x8) ->
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampling::SampleStream;
-    use glam::{Mat3, Vec3};
+    use glam::Mat3;
 
     /// Waves of every size take the pass's items in order, each with the
     /// stream of its own (pixel, sample) — waves that start and end in
-    /// the middle of a pixel's samples included.
+    /// the middle of a pixel's samples included — and each path starts
+    /// fresh with the camera ray through that sample's film position:
+    /// pinhole, or thin lens with one 2D draw of the stream for the
+    /// aperture point.
     #[test]
     fn waves_take_every_item_once_with_its_own_pixel_and_sample() {
         let camera = Camera {
-            position: Vec3::ZERO,
-            target: -Vec3::Z,
-            camera_to_world: Mat3::IDENTITY,
+            position: Vec3::new(0.5, -2.0, 3.0),
+            target: Vec3::ZERO,
+            camera_to_world: Mat3::from_axis_angle(Vec3::new(0.3, -1.0, 0.5).normalize(), 0.7),
             screen_distance: 500.0,
             znear: 0.01,
             zfar: 100.0,
         };
         let (width, height) = (40, 30);
-        let cam = CameraRays {
-            camera: &camera,
-            view: camera.view(width, height),
-            seed: 9,
-            pixel_centre: false,
-            lens_radius: 0.0,
-            focal_distance: 1.0,
-        };
         let tile = Tile {
             x0: 8,
             y0: 4,
@@ -182,49 +177,77 @@ mod tests {
             height: 3,
         };
         let active = [0u32, 3, 4, 9, 14];
-        for (spp, wave) in [(3, 5), (3, 8), (1, 3), (4, 4), (2, 13)] {
-            let mut queue = PassQueue {
-                tile,
-                active: &active,
-                samples_per_pixel: spp,
-                first_sample: 6,
-                next: 0,
+        for lens_radius in [0.0, 0.25] {
+            let cam = CameraRays {
+                camera: &camera,
+                view: camera.view(width, height),
+                seed: 9,
+                pixel_centre: false,
+                lens_radius,
+                focal_distance: 2.5,
             };
-            let mut paths = Paths::default();
-            let mut seen = 0;
-            while !queue.is_done() {
-                paths.truncate(0);
-                let taken = refill(&mut paths, wave, &mut queue, &cam);
-                assert_eq!(taken, paths.len());
-                for (k, &slot) in paths.slot.iter().enumerate() {
-                    let item = seen + k;
-                    assert_eq!(slot as usize, item);
-                    let local = active[item / spp as usize];
-                    let (x, y) = (tile.x0 + local % tile.width, tile.y0 + local / tile.width);
-                    let sample = 6 + (item % spp as usize) as u32;
-                    let expected = SampleStream::new(9, y * width + x, sample);
-                    assert_eq!(
-                        paths.stream[k], expected,
-                        "spp {spp}, waves of {wave}, item {item}"
-                    );
-                    // The ray through the sample's own film position (rows
-                    // flipped: the camera's y = 0 is the bottom row), from
-                    // the near plane, with the whole near-to-far range.
-                    let (u, v) = expected.pixel_offset();
-                    let d = camera.direction(&cam.view, x as f32 + u, (height - 1 - y) as f32 + v);
-                    assert_eq!(paths.rays.direction(k), d, "item {item}");
-                    assert_eq!(paths.rays.origin(k), camera.znear * d);
-                    assert_eq!(paths.rays.t_max[k], camera.zfar - camera.znear);
-                    assert_eq!(paths.throughput[k], Vec3::ONE);
-                    assert_eq!(paths.radiance[k], Vec3::ZERO);
-                    assert!(paths.alive[k] && paths.depth[k] == 0 && !paths.specular[k]);
+            for (spp, wave) in [(3, 5), (3, 8), (1, 3), (4, 4), (2, 13)] {
+                let mut queue = PassQueue {
+                    tile,
+                    active: &active,
+                    samples_per_pixel: spp,
+                    first_sample: 6,
+                    next: 0,
+                };
+                let mut paths = Paths::default();
+                let mut seen = 0;
+                while !queue.is_done() {
+                    paths.truncate(0);
+                    let taken = refill(&mut paths, wave, &mut queue, &cam);
+                    assert_eq!(taken, paths.len());
+                    for (k, &slot) in paths.slot.iter().enumerate() {
+                        let item = seen + k;
+                        let at =
+                            format!("lens {lens_radius}, spp {spp}, waves of {wave}, item {item}");
+                        assert_eq!(slot as usize, item, "{at}");
+                        let local = active[item / spp as usize];
+                        let (x, y) = (tile.x0 + local % tile.width, tile.y0 + local / tile.width);
+                        let sample = 6 + (item % spp as usize) as u32;
+                        let (origin, dir, stream) =
+                            expected_ray(&cam, (x, y), SampleStream::new(9, y * width + x, sample));
+                        assert_eq!(paths.stream[k], stream, "{at}");
+                        assert_eq!(paths.rays.direction(k), dir, "{at}");
+                        assert_eq!(paths.rays.origin(k), origin, "{at}");
+                        assert_eq!(paths.rays.t_max[k], camera.zfar - camera.znear);
+                        assert_eq!(paths.throughput[k], Vec3::ONE);
+                        assert_eq!(paths.radiance[k], Vec3::ZERO);
+                        assert!(paths.alive[k] && paths.depth[k] == 0 && !paths.specular[k]);
+                    }
+                    seen += taken;
                 }
-                seen += taken;
+                assert_eq!(seen, active.len() * spp as usize);
+                // A drained queue adds nothing.
+                paths.truncate(0);
+                assert_eq!(refill(&mut paths, wave, &mut queue, &cam), 0);
             }
-            assert_eq!(seen, active.len() * spp as usize);
-            // A drained queue adds nothing.
-            paths.truncate(0);
-            assert_eq!(refill(&mut paths, wave, &mut queue, &cam), 0);
         }
+    }
+
+    /// The camera ray of one sample of pixel `(x, y)` (film rows top-down),
+    /// one ray at a time: origin, direction and the stream after it.
+    fn expected_ray(
+        cam: &CameraRays,
+        (x, y): (u32, u32),
+        mut stream: SampleStream,
+    ) -> (Vec3, Vec3, SampleStream) {
+        let camera = cam.camera;
+        let (u, v) = stream.pixel_offset();
+        let row = (cam.view.height - 1 - y) as f32;
+        let pinhole = camera.direction(&cam.view, x as f32 + u, row + v);
+        let (origin, dir) = if cam.lens_radius > 0.0 {
+            let focus = camera.position + cam.focal_distance * pinhole;
+            let (lu, lv) = stream.next_2d();
+            let disk = warp::concentric_disk(lu, lv) * cam.lens_radius;
+            let lens = camera.position + camera.camera_to_world * Vec3::new(disk.x, disk.y, 0.0);
+            (lens, (focus - lens) / cam.focal_distance)
+        } else {
+            (camera.position, pinhole)
+        };
+        (origin + camera.znear * dir, dir, stream)
     }
 }

@@ -294,9 +294,8 @@ impl<'a> Renderer<'a> {
 
             // Sum the pass into the film in sample order, then update the mask.
             let t = Instant::now();
-            for (a, &pixel) in active.iter().enumerate() {
-                let base = a * n_pass as usize;
-                film.add(pixel as usize, &slots[base..base + n_pass as usize]);
+            for (&pixel, samples) in active.iter().zip(slots.chunks_exact(n_pass as usize)) {
+                film.add(pixel as usize, samples);
             }
             taken += n_pass;
             if let Some(adaptive) = settings.adaptive {

@@ -57,8 +57,10 @@ impl Paths {
     pub fn start(
         &mut self,
         n: usize,
-        (slots, streams): (&[u32; LANES], &[SampleStream; LANES]),
-        (origin, direction): (Vec3x8, Vec3x8),
+        slots: &[u32; LANES],
+        streams: &[SampleStream; LANES],
+        origin: Vec3x8,
+        direction: Vec3x8,
         t_max: f32,
     ) {
         lanes::extend(&mut self.slot, slots, n);
@@ -183,7 +185,7 @@ impl ShadowWriter<'_> {
         s.path[k] = path as u32;
         s.weight[k] = weight;
         self.count = k + 1;
-        if self.count == 8 {
+        if self.count == LANES {
             self.flush();
         }
     }
@@ -191,9 +193,7 @@ impl ShadowWriter<'_> {
     /// Appends the staged rays.
     fn flush(&mut self) {
         let (n, s, out) = (self.count, &self.staged, &mut *self.out);
-        for (component, staged) in out.rays.components_mut().into_iter().zip(&s.rays) {
-            lanes::extend(component, staged, n);
-        }
+        out.rays.extend_arrays(n, &s.rays);
         lanes::extend(&mut out.path, &s.path, n);
         lanes::extend(&mut out.weight, &s.weight, n);
         self.count = 0;
