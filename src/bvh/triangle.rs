@@ -179,7 +179,7 @@ impl RayTriLanes {
         let lane = lane % WIDTH;
         RayTri {
             k,
-            s: self.shear.map(|s| s[lane]),
+            s: std::array::from_fn(|k| self.shear[k][lane]),
             o: k.map(|axis| o[axis]),
         }
     }
@@ -246,10 +246,12 @@ impl PacketTri {
     #[inline(always)]
     pub fn ray(&self, lane: usize) -> RayTri {
         match self {
+            // By reference: `p.s.map(..)` would copy each register to
+            // the stack to read one lane of it.
             PacketTri::Shared(p) => RayTri {
                 k: p.k,
-                s: p.s.map(|s| s.as_array()[lane % WIDTH]),
-                o: p.o.map(|o| o.as_array()[lane % WIDTH]),
+                s: std::array::from_fn(|k| p.s[k].as_array()[lane % WIDTH]),
+                o: std::array::from_fn(|k| p.o[k].as_array()[lane % WIDTH]),
             },
             PacketTri::PerRay(tri) => tri[lane % WIDTH],
         }
