@@ -494,7 +494,7 @@ fn profile(w: &Workload, kind: &str) {
         let stats = trace_profiled(&bvh, set, repeat);
         let secs = t0.elapsed().as_secs_f64();
         println!(
-            "{} {}: {} rays, {:.2} nodes/ray, {:.2} primitives/ray, {:.1} Mrays/s",
+            "{} {}: {} rays, {:.2} nodes/ray, {:.2} primitives/ray, {:.2} Mrays/s",
             w.name,
             kind,
             stats.rays,
