@@ -179,7 +179,7 @@ impl RayTriLanes {
         let lane = lane % WIDTH;
         RayTri {
             k,
-            s: std::array::from_fn(|k| self.shear[k][lane]),
+            s: std::array::from_fn(|j| self.shear[j][lane]),
             o: k.map(|axis| o[axis]),
         }
     }
@@ -250,8 +250,8 @@ impl PacketTri {
             // the stack to read one lane of it.
             PacketTri::Shared(p) => RayTri {
                 k: p.k,
-                s: std::array::from_fn(|k| p.s[k].as_array()[lane % WIDTH]),
-                o: std::array::from_fn(|k| p.o[k].as_array()[lane % WIDTH]),
+                s: std::array::from_fn(|j| p.s[j].as_array()[lane % WIDTH]),
+                o: std::array::from_fn(|j| p.o[j].as_array()[lane % WIDTH]),
             },
             PacketTri::PerRay(tri) => tri[lane % WIDTH],
         }
