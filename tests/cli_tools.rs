@@ -1,4 +1,4 @@
-//! `wavepath compare` and `wavepath converge` as a user runs them: results
+//! `wavepath compare`, `converge` and `mitsuba` as a user runs them: results
 //! on good input, one clear line naming the file and a non-zero exit on
 //! bad input, and the render command left as it was.
 
@@ -266,4 +266,43 @@ fn compare_decodes_our_pngs_with_the_reference_curve() {
         "MAPE {reference}% decoding with the reference curve"
     );
     assert!(srgb > 10.0, "MAPE {srgb}% should show the wrong curve");
+}
+
+#[test]
+fn mitsuba_writes_the_scene_and_refuses_bad_input_naming_the_file() {
+    let dir = scratch("mitsuba");
+    let out = dir.join("cornell_mitsuba");
+    let o = wavepath(&[
+        "mitsuba",
+        "-s",
+        "32",
+        "-m",
+        "3",
+        "-r",
+        "200",
+        "150",
+        SCENE,
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let xml = std::fs::read_to_string(out.join("scene.xml")).unwrap();
+    for expected in [
+        "name=\"max_depth\" value=\"4\"",
+        "name=\"sample_count\" value=\"32\"",
+        "name=\"width\" value=\"200\"",
+        "name=\"height\" value=\"150\"",
+        "<emitter type=\"area\">",
+    ] {
+        assert!(xml.contains(expected), "{expected} missing from\n{xml}");
+    }
+    // Every mesh the XML names was written.
+    for file in xml.split("value=\"meshes/").skip(1) {
+        let name = &file[..file.find('"').unwrap()];
+        assert!(out.join("meshes").join(name).is_file(), "{name}");
+    }
+
+    let broken = dir.join("broken.dae");
+    std::fs::write(&broken, "<COLLADA><library_geometries>").unwrap();
+    let o = wavepath(&["mitsuba", broken.to_str().unwrap(), out.to_str().unwrap()]);
+    assert_refused(&o, "broken.dae");
 }

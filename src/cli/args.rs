@@ -16,7 +16,8 @@ use crate::integrator::{Bounces, View};
     after_help = "Example: wavepath -s 64 -l 4 -m 5 -r 480 360 -f cbox.png scenes/cornell.dae\n\n\
                   Tools (see `wavepath <tool> --help`):\n  \
                   wavepath compare <image> <reference> [--diff err.png]   error metrics of EXR/PNG images\n  \
-                  wavepath converge [options] --ref ref.exr <scene.dae>    error vs time per estimator"
+                  wavepath converge [options] --ref ref.exr <scene.dae>    error vs time per estimator\n  \
+                  wavepath mitsuba [options] <scene.dae> <dir>             the scene for Mitsuba 3 (side-by-side timing)"
 )]
 pub struct Args {
     /// Scene file (.dae) [default: the built-in Cornell box, scenes/cornell.dae]

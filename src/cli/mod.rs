@@ -1,13 +1,14 @@
 //! The `wavepath` command: parse flags, load, build, render, write.
 //!
-//! `wavepath compare …` and `wavepath converge …` are dispatched on the
-//! first argument before the render flags are parsed, so that
-//! `wavepath [options] <scene.dae>` is unchanged (a scene file literally
-//! named `compare` is given as `./compare`).
+//! `wavepath compare …`, `wavepath converge …` and `wavepath mitsuba …`
+//! are dispatched on the first argument before the render flags are
+//! parsed, so that `wavepath [options] <scene.dae>` is unchanged (a scene
+//! file literally named `compare` is given as `./compare`).
 
 mod args;
 pub mod compare;
 pub mod converge;
+pub mod mitsuba;
 mod plot;
 mod report;
 
@@ -185,6 +186,7 @@ pub fn run() -> Result<i32> {
     match argv.get(1).and_then(|a| a.to_str()) {
         Some("compare") => return compare::run(argv.split_off(1)),
         Some("converge") => return converge::run(argv.split_off(1)),
+        Some("mitsuba") => return mitsuba::run(argv.split_off(1)),
         _ => {}
     }
     let args = Args::parse_from(argv);
