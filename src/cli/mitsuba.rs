@@ -12,13 +12,22 @@
 //!
 //! * Lambertian surfaces are two-sided in wavepath: `twosided` `diffuse`.
 //! * Emitters: an `area` emitter per emissive mesh, facing the mesh's
-//!   normals; two-sided emissive meshes get a flipped copy (Mitsuba's area
-//!   emitters are one-sided).
-//! * Point and directional lights map to `point` and `directional`; a
-//!   hemisphere light has no Mitsuba counterpart (it lights only from above
-//!   the horizon), so it is written as a `constant` emitter with a warning.
-//! * `-m k` (bounces) is Mitsuba's `max_depth` k + 1; the film uses a box
-//!   filter, as wavepath does.
+//!   normals. Mitsuba's area emitters are one-sided, so a two-sided
+//!   emissive mesh gets a flipped copy, the two moved apart along their
+//!   normals by 1e-5 of the scene's size (coincident, each would hide the
+//!   other from half the rays).
+//! * Point and directional lights map to `point` and `directional`. A
+//!   hemisphere light (sky above the horizon, unseen by camera rays) is an
+//!   `envmap` whose upper half holds the radiance, with the integrator's
+//!   `hide_emitters` on when nothing else emits (else camera rays would
+//!   see the sky where wavepath shows black: a warning says so).
+//! * `-m k` (bounces) is Mitsuba's `max_depth` k + 1, and roulette starts
+//!   where wavepath's does (`rr_depth` = [`ROULETTE_DEPTH`] + 1, Mitsuba
+//!   counting depth from 1), though with Mitsuba's continuation rule; the
+//!   film uses a box filter and the camera wavepath's near and far
+//!   planes.
+//! * Vertex normals that vanish (opposite faces cancelling) are replaced
+//!   by the face's normal, which is what wavepath shades with there.
 
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -28,6 +37,8 @@ use anyhow::{Context, Result, bail};
 use clap::Parser;
 use glam::Vec3;
 
+use crate::film::{Image, output};
+use crate::integrator::ROULETTE_DEPTH;
 use crate::integrator::bsdf::{self, Surface};
 use crate::scene::{Light, Scene, collada};
 
@@ -51,6 +62,9 @@ pub struct MitsubaArgs {
     /// Bounces as wavepath counts them (-m); Mitsuba's max_depth is one more
     #[arg(short = 'm', long = "max-depth", value_name = "N", default_value_t = 5)]
     pub max_depth: u32,
+    /// Mitsuba's rr_depth (first depth at which its roulette plays) [default: where wavepath's starts]
+    #[arg(long = "rr-depth", value_name = "N")]
+    pub rr_depth: Option<u32>,
     /// Resolution in pixels
     #[arg(
         short = 'r',
@@ -73,6 +87,7 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
     let settings = Export {
         spp: args.spp,
         max_depth: args.max_depth,
+        rr_depth: args.rr_depth.unwrap_or(ROULETTE_DEPTH + 1),
         width: args.resolution[0],
         height: args.resolution[1],
     };
@@ -90,6 +105,8 @@ pub struct Export {
     pub spp: u32,
     /// Bounces, as `-m` counts them.
     pub max_depth: u32,
+    /// Mitsuba's `rr_depth`.
+    pub rr_depth: u32,
     pub width: u32,
     pub height: u32,
 }
@@ -103,16 +120,39 @@ pub fn write(scene: &Scene, settings: &Export, dir: &Path) -> Result<Vec<String>
     std::fs::create_dir_all(&meshes)
         .with_context(|| format!("{}: cannot create directory", meshes.display()))?;
 
+    let tris = &scene.geometry.triangles;
+    let spheres = &scene.geometry.spheres;
+    let sky = scene
+        .lights
+        .iter()
+        .any(|l| matches!(l, Light::Hemisphere { .. }));
+    let emits = |m: u32| matches!(surfaces[m as usize], Surface::Emitter { .. });
+    let shapes_emit = tris
+        .material
+        .iter()
+        .chain(&spheres.material)
+        .any(|&m| emits(m));
+    let hide_sky = sky && !shapes_emit;
+    if sky && shapes_emit {
+        warnings.push(
+            "the sky (hemisphere light) is visible to Mitsuba's camera rays, not to wavepath's: \
+             the scene also has emissive shapes, which hiding emitters would hide too"
+                .into(),
+        );
+    }
+
     let mut xml = String::new();
     let _ = writeln!(xml, "<scene version=\"3.0.0\">");
     let _ = writeln!(
         xml,
-        "  <integrator type=\"path\">\n    <integer name=\"max_depth\" value=\"{}\"/>\n  </integrator>",
-        settings.max_depth + 1
+        "  <integrator type=\"path\">\n    <integer name=\"max_depth\" value=\"{}\"/>\n    <integer name=\"rr_depth\" value=\"{}\"/>\n    <boolean name=\"hide_emitters\" value=\"{hide_sky}\"/>\n  </integrator>",
+        settings.max_depth + 1,
+        settings.rr_depth,
     );
     write_sensor(&mut xml, scene, settings);
+    // How far a two-sided emitter's two copies sit apart (each moved half).
+    let separation = 1e-5 * scene.geometry.bounds().diagonal().length();
 
-    let tris = &scene.geometry.triangles;
     for (m, surface) in surfaces.iter().enumerate() {
         let faces: Vec<usize> = (0..tris.len())
             .filter(|&t| tris.material[t] as usize == m)
@@ -121,18 +161,26 @@ pub fn write(scene: &Scene, settings: &Export, dir: &Path) -> Result<Vec<String>
             continue;
         }
         let name = format!("material{m}.ply");
-        write_ply(&meshes.join(&name), scene, &faces, false)?;
+        let two_sided = matches!(
+            surface,
+            Surface::Emitter {
+                one_sided: false,
+                ..
+            }
+        );
+        let apart = if two_sided { separation } else { 0.0 };
+        write_ply(&meshes.join(&name), scene, &faces, false, apart)?;
         write_shape(&mut xml, &format!("meshes/{name}"), surface);
-        if let Surface::Emitter {
-            one_sided: false, ..
-        } = surface
-        {
+        if two_sided {
             let flipped = format!("material{m}_back.ply");
-            write_ply(&meshes.join(&flipped), scene, &faces, true)?;
+            write_ply(&meshes.join(&flipped), scene, &faces, true, apart)?;
             write_shape(&mut xml, &format!("meshes/{flipped}"), surface);
         }
     }
-    let spheres = &scene.geometry.spheres;
+    if spheres.material.iter().any(|&m| emits(m)) {
+        warnings
+            .push("emissive spheres emit only outward in Mitsuba; in wavepath, inward too".into());
+    }
     for s in 0..spheres.len() {
         let surface = &surfaces[spheres.material[s] as usize];
         let _ = writeln!(
@@ -144,6 +192,7 @@ pub fn write(scene: &Scene, settings: &Export, dir: &Path) -> Result<Vec<String>
         write_material(&mut xml, surface);
         let _ = writeln!(xml, "  </shape>");
     }
+    let mut sky_maps = 0;
     for light in &scene.lights {
         match light {
             Light::Point {
@@ -168,15 +217,12 @@ pub fn write(scene: &Scene, settings: &Export, dir: &Path) -> Result<Vec<String>
             // Already geometry: the emissive rectangle written above.
             Light::Area { .. } => {}
             Light::Hemisphere { radiance } => {
-                warnings.push(
-                    "hemisphere light written as Mitsuba's `constant` emitter, which also \
-                     lights from below the horizon"
-                        .into(),
-                );
+                let name = format!("sky{}.exr", sky_maps);
+                sky_maps += 1;
+                write_sky(&meshes.join(&name), *radiance)?;
                 let _ = writeln!(
                     xml,
-                    "  <emitter type=\"constant\">\n    <rgb name=\"radiance\" value=\"{}\"/>\n  </emitter>",
-                    triple(*radiance)
+                    "  <emitter type=\"envmap\">\n    <string name=\"filename\" value=\"meshes/{name}\"/>\n  </emitter>"
                 );
             }
         }
@@ -197,7 +243,9 @@ fn write_sensor(xml: &mut String, scene: &Scene, s: &Export) {
     let target = camera.position - m.z_axis;
     let _ = writeln!(
         xml,
-        "  <sensor type=\"perspective\">\n    <string name=\"fov_axis\" value=\"y\"/>\n    <float name=\"fov\" value=\"{fov}\"/>\n    <transform name=\"to_world\">\n      <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n    </transform>\n    <sampler type=\"independent\">\n      <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n    <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      <integer name=\"height\" value=\"{}\"/>\n      <rfilter type=\"box\"/>\n    </film>\n  </sensor>",
+        "  <sensor type=\"perspective\">\n    <string name=\"fov_axis\" value=\"y\"/>\n    <float name=\"fov\" value=\"{fov}\"/>\n    <float name=\"near_clip\" value=\"{}\"/>\n    <float name=\"far_clip\" value=\"{}\"/>\n    <transform name=\"to_world\">\n      <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n    </transform>\n    <sampler type=\"independent\">\n      <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n    <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      <integer name=\"height\" value=\"{}\"/>\n      <rfilter type=\"box\"/>\n    </film>\n  </sensor>",
+        camera.znear,
+        camera.zfar,
         triple(camera.position),
         triple(target),
         triple(m.y_axis),
@@ -239,8 +287,9 @@ fn write_material(xml: &mut String, surface: &Surface) {
 
 /// Writes triangles `faces` as a binary little-endian PLY with per-vertex
 /// normals, each triangle with its own three vertices (no sharing needed
-/// for a timing comparison). `flip` reverses the winding and the normals.
-fn write_ply(path: &Path, scene: &Scene, faces: &[usize], flip: bool) -> Result<()> {
+/// for a timing comparison). `flip` reverses the winding and the normals;
+/// every vertex moves `apart / 2` along its (possibly flipped) normal.
+fn write_ply(path: &Path, scene: &Scene, faces: &[usize], flip: bool, apart: f32) -> Result<()> {
     let tris = &scene.geometry.triangles;
     if faces.len() > i32::MAX as usize / 3 {
         bail!("{}: too many triangles for a PLY index", path.display());
@@ -256,10 +305,19 @@ fn write_ply(path: &Path, scene: &Scene, faces: &[usize], flip: bool) -> Result<
     let mut bytes = header.into_bytes();
     let sign = if flip { -1.0 } else { 1.0 };
     for &t in faces {
+        let [a, b, c] = tris.vertices(t);
+        let face_normal = (b - a).cross(c - a).normalize_or_zero();
         for index in tris.indices[t] {
             let i = index as usize;
-            let n = sign * tris.normals.get(i).copied().unwrap_or(Vec3::ZERO);
-            for x in tris.positions[i].to_array().into_iter().chain(n.to_array()) {
+            let n = tris
+                .normals
+                .get(i)
+                .copied()
+                .filter(|n| n.length_squared() > 0.0)
+                .unwrap_or(face_normal);
+            let n = sign * n;
+            let p = tris.positions[i] + 0.5 * apart * n;
+            for x in p.to_array().into_iter().chain(n.to_array()) {
                 bytes.extend_from_slice(&x.to_le_bytes());
             }
         }
@@ -278,6 +336,20 @@ fn write_ply(path: &Path, scene: &Scene, faces: &[usize], flip: bool) -> Result<
     Ok(())
 }
 
+/// A hemisphere light as a latitude–longitude map: `radiance` in the rows
+/// above the horizon (Mitsuba's envmap puts +y at the top row), black
+/// below; 256 rows keep the horizon within 0.7° of where it is.
+fn write_sky(path: &Path, radiance: Vec3) -> Result<()> {
+    let (width, height) = (8, 256);
+    let mut map = Image::new(width, height);
+    for (row, pixels) in map.pixels.chunks_mut(width as usize).enumerate() {
+        if row < height as usize / 2 {
+            pixels.fill(radiance);
+        }
+    }
+    output::write_exr(&map, path, false)
+}
+
 /// `x y z` as Mitsuba's XML writes vectors.
 fn triple(v: Vec3) -> String {
     format!("{} {} {}", v.x, v.y, v.z)
@@ -286,126 +358,291 @@ fn triple(v: Vec3) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Material;
 
-    /// The built-in Cornell box, as loaded and with its first material
-    /// made a two-sided emitter.
-    fn cornell_scenes() -> [Scene; 2] {
-        let scene = collada::load_str(
+    fn cornell() -> Scene {
+        collada::load_str(
             include_str!("../../scenes/cornell.dae"),
             Path::new("cornell.dae"),
         )
-        .unwrap();
+        .unwrap()
+    }
+
+    const SETTINGS: Export = Export {
+        spp: 16,
+        max_depth: 5,
+        rr_depth: 6,
+        width: 320,
+        height: 240,
+    };
+
+    /// Exports `scene` into a fresh directory; returns it, the XML and the
+    /// warnings.
+    fn export(scene: &Scene, tag: &str) -> (PathBuf, String, Vec<String>) {
+        let dir =
+            std::env::temp_dir().join(format!("wavepath_mitsuba_{tag}_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let warnings = write(scene, &SETTINGS, &dir).unwrap();
+        let xml = std::fs::read_to_string(dir.join("scene.xml")).unwrap();
+        (dir, xml, warnings)
+    }
+
+    /// The `value` of the first element `<tag name="name">` below `node`.
+    fn value<'a>(node: roxmltree::Node<'a, '_>, tag: &str, name: &str) -> &'a str {
+        node.descendants()
+            .find(|n| n.has_tag_name(tag) && n.attribute("name") == Some(name))
+            .and_then(|n| n.attribute("value"))
+            .unwrap_or_else(|| panic!("no <{tag} name=\"{name}\">"))
+    }
+
+    fn vec3(text: &str) -> Vec3 {
+        let v: Vec<f32> = text.split(' ').map(|x| x.parse().unwrap()).collect();
+        Vec3::new(v[0], v[1], v[2])
+    }
+
+    /// A binary PLY as `write_ply` lays it out: position and normal per
+    /// vertex, three indices per face. Panics on any other layout or a
+    /// byte count that does not match the header.
+    struct Ply {
+        vertices: Vec<(Vec3, Vec3)>,
+        faces: Vec<[usize; 3]>,
+    }
+
+    fn read_ply(path: &Path) -> Ply {
+        let bytes = std::fs::read(path).unwrap();
+        let end = bytes
+            .windows(11)
+            .position(|w| w == b"end_header\n")
+            .unwrap()
+            + 11;
+        let header = std::str::from_utf8(&bytes[..end]).unwrap();
+        let count = |element: &str| -> usize {
+            header
+                .lines()
+                .find_map(|l| l.strip_prefix(&format!("element {element} ")))
+                .unwrap()
+                .parse()
+                .unwrap()
+        };
+        let (nv, nf) = (count("vertex"), count("face"));
+        assert_eq!(bytes.len() - end, 24 * nv + 13 * nf, "{}", path.display());
+        let f32_at = |at: usize| f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+        let vertices = (0..nv)
+            .map(|k| {
+                let x = |j: usize| f32_at(end + 24 * k + 4 * j);
+                (Vec3::new(x(0), x(1), x(2)), Vec3::new(x(3), x(4), x(5)))
+            })
+            .collect();
+        let faces_at = end + 24 * nv;
+        let faces = (0..nf)
+            .map(|k| {
+                let at = faces_at + 13 * k;
+                assert_eq!(bytes[at], 3);
+                std::array::from_fn(|j| {
+                    i32::from_le_bytes(bytes[at + 1 + 4 * j..at + 5 + 4 * j].try_into().unwrap())
+                        as usize
+                })
+            })
+            .collect();
+        Ply { vertices, faces }
+    }
+
+    #[test]
+    fn settings_reach_the_integrator_sensor_and_film() {
+        let scene = cornell();
+        let (dir, xml, _) = export(&scene, "settings");
+        let doc = roxmltree::Document::parse(&xml).unwrap();
+        let root = doc.root();
+        assert_eq!(value(root, "integer", "max_depth"), "6");
+        assert_eq!(value(root, "integer", "rr_depth"), "6");
+        assert_eq!(value(root, "boolean", "hide_emitters"), "false");
+        assert_eq!(value(root, "integer", "sample_count"), "16");
+        assert_eq!(value(root, "integer", "width"), "320");
+        assert_eq!(value(root, "integer", "height"), "240");
+        let near: f32 = value(root, "float", "near_clip").parse().unwrap();
+        let far: f32 = value(root, "float", "far_clip").parse().unwrap();
+        assert_eq!((near, far), (scene.camera.znear, scene.camera.zfar));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Every triangle lands once (twice, the second flipped, for two-sided
+    /// emitters) with its material's reflectance or radiance, and every
+    /// emitter faces the side wavepath's emits to: winding and normals
+    /// agree, one-sided area lights face the light's normal, and a
+    /// flipped copy mirrors its front copy at the stated separation.
+    #[test]
+    fn triangles_keep_their_materials_and_emitters_face_their_light() {
+        let scene = cornell();
         let mut glowing = scene.clone();
-        glowing.materials[0].material = crate::scene::Material::Emission {
+        glowing.materials[0].material = Material::Emission {
             radiance: Vec3::splat(2.0),
             one_sided: false,
         };
-        [scene, glowing]
-    }
-
-    /// Exported, every triangle lands in exactly one PLY of the right
-    /// size (two-sided emitters twice, once flipped), every emissive
-    /// material gets an area emitter per copy, and the sensor and
-    /// integrator carry the settings.
-    #[test]
-    fn cornell_box_exports_every_triangle_and_emitter() {
-        for (k, scene) in cornell_scenes().iter().enumerate() {
-            check_export(scene, &format!("{}_{k}", std::process::id()));
-        }
-    }
-
-    fn check_export(scene: &Scene, tag: &str) {
-        let dir = std::env::temp_dir().join(format!("wavepath_mitsuba_{tag}"));
-        let settings = Export {
-            spp: 16,
-            max_depth: 5,
-            width: 320,
-            height: 240,
-        };
-        write(scene, &settings, &dir).unwrap();
-        let xml = std::fs::read_to_string(dir.join("scene.xml")).unwrap();
-        let doc = roxmltree::Document::parse(&xml).unwrap();
-        let value = |tag: &str, name: &str| {
-            doc.descendants()
-                .find(|n| n.has_tag_name(tag) && n.attribute("name") == Some(name))
-                .and_then(|n| n.attribute("value"))
-                .unwrap()
-                .to_string()
-        };
-        assert_eq!(value("integer", "max_depth"), "6");
-        assert_eq!(value("integer", "sample_count"), "16");
-        assert_eq!(value("integer", "width"), "320");
-        assert_eq!(value("integer", "height"), "240");
-
-        let mut surfaces_warnings = Vec::new();
-        let surfaces = bsdf::prepare(&scene.materials, &mut surfaces_warnings);
-        let tris = &scene.geometry.triangles;
-        let (mut faces, mut emitters) = (0, 0);
-        for shape in doc
-            .descendants()
-            .filter(|n| n.attribute("type") == Some("ply"))
-        {
-            let file = shape
-                .children()
-                .find(|n| n.attribute("name") == Some("filename"))
-                .and_then(|n| n.attribute("value"))
-                .unwrap();
-            let bytes = std::fs::read(dir.join(file)).unwrap();
-            let end = bytes
-                .windows(11)
-                .position(|w| w == b"end_header\n")
-                .unwrap()
-                + 11;
-            let header = std::str::from_utf8(&bytes[..end]).unwrap();
-            let count = |element: &str| -> usize {
-                header
-                    .lines()
-                    .find_map(|l| l.strip_prefix(&format!("element {element} ")))
-                    .unwrap()
-                    .parse()
-                    .unwrap()
-            };
-            let (v, f) = (count("vertex"), count("face"));
-            assert_eq!(v, 3 * f, "{file}");
-            // Six floats per vertex, one count byte and three ints per face.
-            assert_eq!(bytes.len() - end, 24 * v + 13 * f, "{file}");
-            faces += f;
-            emitters += shape
-                .children()
-                .filter(|n| n.has_tag_name("emitter"))
-                .count();
-        }
-        let two_sided: Vec<usize> = surfaces
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| {
-                matches!(
-                    s,
-                    Surface::Emitter {
-                        one_sided: false,
-                        ..
+        for (k, scene) in [scene, glowing].iter().enumerate() {
+            let (dir, xml, _) = export(scene, &format!("materials{k}"));
+            let doc = roxmltree::Document::parse(&xml).unwrap();
+            let surfaces = bsdf::prepare(&scene.materials, &mut Vec::new());
+            let tris = &scene.geometry.triangles;
+            let separation = 1e-5 * scene.geometry.bounds().diagonal().length();
+            let mut faces = 0;
+            let mut backs = 0;
+            for shape in doc
+                .descendants()
+                .filter(|n| n.attribute("type") == Some("ply"))
+            {
+                let file = value(shape, "string", "filename");
+                let stem = file.trim_start_matches("meshes/material");
+                let (m, back) = match stem.strip_suffix("_back.ply") {
+                    Some(m) => (m, true),
+                    None => (stem.strip_suffix(".ply").unwrap(), false),
+                };
+                let m: usize = m.parse().unwrap();
+                let ply = read_ply(&dir.join(file));
+                faces += ply.faces.len();
+                let own: Vec<usize> = (0..tris.len())
+                    .filter(|&t| tris.material[t] as usize == m)
+                    .collect();
+                assert_eq!(ply.faces.len(), own.len(), "{file}");
+                let reflectance = vec3(value(shape, "rgb", "reflectance"));
+                let emitter = shape.children().find(|n| n.has_tag_name("emitter"));
+                match surfaces[m] {
+                    Surface::Diffuse { albedo } => {
+                        assert_eq!(reflectance, albedo, "{file}");
+                        assert!(emitter.is_none(), "{file}");
                     }
-                )
-            })
-            .map(|(m, _)| m)
-            .collect();
-        let back_faces = (0..tris.len())
-            .filter(|&t| two_sided.contains(&(tris.material[t] as usize)))
-            .count();
-        assert_eq!(faces, tris.len() + back_faces);
-        let emissive: Vec<usize> = surfaces
-            .iter()
-            .enumerate()
-            .filter(|(m, s)| {
-                matches!(s, Surface::Emitter { .. })
-                    && tris.material.iter().any(|&t| t as usize == *m)
-            })
-            .map(|(m, _)| m)
-            .collect();
-        assert!(!emissive.is_empty(), "the Cornell box has a light");
-        assert_eq!(back_faces > 0, !two_sided.is_empty());
-        let expected = emissive.len() + emissive.iter().filter(|m| two_sided.contains(m)).count();
-        assert_eq!(emitters, expected);
+                    Surface::Emitter {
+                        radiance,
+                        one_sided,
+                    } => {
+                        assert_eq!(reflectance, Vec3::ZERO, "{file}");
+                        let e = emitter.unwrap_or_else(|| panic!("{file}: no emitter"));
+                        assert_eq!(vec3(value(e, "rgb", "radiance")), radiance, "{file}");
+                        assert!(
+                            !back || !one_sided,
+                            "{file}: one-sided emitters have no copy"
+                        );
+                        for (f, &t) in ply.faces.iter().zip(&own) {
+                            let [a, b, c] = f.map(|i| ply.vertices[i].0);
+                            let winding = (b - a).cross(c - a);
+                            for i in f {
+                                assert!(winding.dot(ply.vertices[*i].1) > 0.0, "{file}");
+                            }
+                            // Against the scene's own triangle: the same
+                            // corners, moved apart for two-sided emitters.
+                            let corners = tris.vertices(t);
+                            let moved = if one_sided { 0.0 } else { 0.5 * separation };
+                            for (j, &i) in f.iter().enumerate() {
+                                let original = corners[if back { 2 - j } else { j }];
+                                let d = (ply.vertices[i].0 - original).length();
+                                assert!((d - moved).abs() <= 1e-6 * (1.0 + moved), "{file}: {d}");
+                            }
+                        }
+                        if one_sided {
+                            let light_normal = scene
+                                .lights
+                                .iter()
+                                .find_map(|l| l.emitting_normal())
+                                .unwrap();
+                            let [a, b, c] = ply.faces[0].map(|i| ply.vertices[i].0);
+                            assert!((b - a).cross(c - a).dot(light_normal) > 0.0, "{file}");
+                        }
+                    }
+                }
+                backs += usize::from(back);
+            }
+            let two_sided_faces = (0..tris.len())
+                .filter(|&t| {
+                    matches!(
+                        surfaces[tris.material[t] as usize],
+                        Surface::Emitter {
+                            one_sided: false,
+                            ..
+                        }
+                    )
+                })
+                .count();
+            assert_eq!(faces, tris.len() + two_sided_faces);
+            assert_eq!(backs > 0, k == 1, "only the glowing box has a flipped copy");
+            std::fs::remove_dir_all(&dir).unwrap();
+        }
+    }
+
+    /// The camera of the XML, read the way Mitsuba's `perspective` sensor
+    /// reads it (camera x = up × view is image *left*, film (0, 0) at the
+    /// top left), sends the rays wavepath sends through the same film
+    /// points.
+    #[test]
+    fn the_camera_sends_the_rays_wavepath_sends() {
+        let scene = cornell();
+        let (dir, xml, _) = export(&scene, "camera");
+        let doc = roxmltree::Document::parse(&xml).unwrap();
+        let lookat = doc
+            .descendants()
+            .find(|n| n.has_tag_name("lookat"))
+            .unwrap();
+        let at = |name: &str| vec3(lookat.attribute(name).unwrap());
+        let (origin, target, up) = (at("origin"), at("target"), at("up"));
+        let fov: f32 = value(doc.root(), "float", "fov").parse().unwrap();
+        let forward = (target - origin).normalize();
+        let left = up.cross(forward).normalize();
+        let up = forward.cross(left);
+        let tan_y = (0.5 * fov.to_radians()).tan();
+        let (w, h) = (SETTINGS.width as f32, SETTINGS.height as f32);
+        let view = scene.camera.view(SETTINGS.width, SETTINGS.height);
+        assert!((origin - scene.camera.position).length() < 1e-6);
+        for (fx, fy) in [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h), (0.3 * w, 0.8 * h)] {
+            // wavepath's film y grows upward; Mitsuba's v grows downward.
+            let (u, v) = (fx / w, 1.0 - fy / h);
+            let x = (1.0 - 2.0 * u) * tan_y * (w / h);
+            let y = (1.0 - 2.0 * v) * tan_y;
+            let mitsuba = (x * left + y * up + forward).normalize();
+            let ours = scene.camera.direction(&view, fx, fy).normalize();
+            assert!(
+                (mitsuba - ours).length() < 1e-5,
+                "film ({fx}, {fy}): Mitsuba {mitsuba}, wavepath {ours}"
+            );
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A hemisphere light becomes an envmap bright above the horizon and
+    /// black below, hidden from camera rays when nothing else emits (and a
+    /// warning when something does, since hiding would hide that too).
+    #[test]
+    fn a_hemisphere_light_is_an_upper_half_envmap() {
+        let radiance = Vec3::new(0.5, 1.0, 2.0);
+        let mut sky_only = cornell();
+        sky_only.lights = vec![Light::Hemisphere { radiance }];
+        for m in &mut sky_only.materials {
+            if let Material::Emission { .. } = m.material {
+                m.material = Material::DEFAULT;
+            }
+        }
+        let (dir, xml, warnings) = export(&sky_only, "sky");
+        let doc = roxmltree::Document::parse(&xml).unwrap();
+        assert_eq!(value(doc.root(), "boolean", "hide_emitters"), "true");
+        assert!(warnings.is_empty(), "{warnings:?}");
+        let envmap = doc
+            .descendants()
+            .find(|n| n.attribute("type") == Some("envmap"))
+            .unwrap();
+        let map = output::read_image(&dir.join(value(envmap, "string", "filename"))).unwrap();
+        let w = map.width as usize;
+        for (row, pixels) in map.pixels.chunks(w).enumerate() {
+            let want = if row < map.height as usize / 2 {
+                radiance
+            } else {
+                Vec3::ZERO
+            };
+            assert!(pixels.iter().all(|&p| p == want), "row {row}");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+
+        let mut sky_and_light = cornell();
+        sky_and_light.lights.push(Light::Hemisphere { radiance });
+        let (dir, xml, warnings) = export(&sky_and_light, "sky_light");
+        assert!(xml.contains("<boolean name=\"hide_emitters\" value=\"false\"/>"));
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
