@@ -150,13 +150,14 @@ pub fn write(scene: &Scene, settings: &Export, dir: &Path) -> Result<Vec<String>
         settings.rr_depth,
     );
     write_sensor(&mut xml, scene, settings);
-    // How far a two-sided emitter's two copies sit apart (each moved half).
-    let separation = 1e-5 * scene.geometry.bounds().diagonal().length();
+    let separation = separation(scene);
 
-    for (m, surface) in surfaces.iter().enumerate() {
-        let faces: Vec<usize> = (0..tris.len())
-            .filter(|&t| tris.material[t] as usize == m)
-            .collect();
+    // The triangles of each material, in one pass.
+    let mut faces_of = vec![Vec::new(); surfaces.len()];
+    for (t, &m) in tris.material.iter().enumerate() {
+        faces_of[m as usize].push(t);
+    }
+    for (m, (surface, faces)) in surfaces.iter().zip(&faces_of).enumerate() {
         if faces.is_empty() {
             continue;
         }
@@ -169,11 +170,11 @@ pub fn write(scene: &Scene, settings: &Export, dir: &Path) -> Result<Vec<String>
             }
         );
         let apart = if two_sided { separation } else { 0.0 };
-        write_ply(&meshes.join(&name), scene, &faces, false, apart)?;
+        write_ply(&meshes.join(&name), scene, faces, false, apart)?;
         write_shape(&mut xml, &format!("meshes/{name}"), surface);
         if two_sided {
             let flipped = format!("material{m}_back.ply");
-            write_ply(&meshes.join(&flipped), scene, &faces, true, apart)?;
+            write_ply(&meshes.join(&flipped), scene, faces, true, apart)?;
             write_shape(&mut xml, &format!("meshes/{flipped}"), surface);
         }
     }
@@ -231,6 +232,11 @@ pub fn write(scene: &Scene, settings: &Export, dir: &Path) -> Result<Vec<String>
     let path = dir.join("scene.xml");
     std::fs::write(&path, xml).with_context(|| format!("{}: cannot write", path.display()))?;
     Ok(warnings)
+}
+
+/// How far a two-sided emitter's two copies sit apart (each moves half).
+fn separation(scene: &Scene) -> f32 {
+    1e-5 * scene.geometry.bounds().diagonal().length()
 }
 
 /// The camera: the same eye, view direction, up and vertical field of view
@@ -483,7 +489,7 @@ mod tests {
             let doc = roxmltree::Document::parse(&xml).unwrap();
             let surfaces = bsdf::prepare(&scene.materials, &mut Vec::new());
             let tris = &scene.geometry.triangles;
-            let separation = 1e-5 * scene.geometry.bounds().diagonal().length();
+            let separation = separation(scene);
             let mut faces = 0;
             let mut backs = 0;
             for shape in doc
