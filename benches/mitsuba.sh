@@ -7,7 +7,9 @@
 #
 # usage: benches/mitsuba.sh [ROUNDS] [scene.dae]   (from the repository root)
 # env:   SPP (64), DEPTH (5), RES ("480 360"); EXPORT_ARGS, e.g. "--rr-depth 5"
-#        for Mitsuba's own roulette default
+#        for Mitsuba's own roulette default; WP, the wavepath binary to time
+#        (default: the release build, which the script makes), e.g. the
+#        profile-guided one of benches/pgo-build.sh
 #
 # Needs Python 3 with venv, network access to PyPI (mitsuba==3.9.1 is
 # installed into target/mitsuba-venv on first use) and libLLVM 16 or newer
@@ -21,7 +23,7 @@ RES=${RES:-480 360}
 HERE=$(cd "$(dirname "$0")" && pwd)
 VENV=target/mitsuba-venv
 OUT=target/mitsuba-compare
-WP=target/release/wavepath
+WP=${WP:-target/release/wavepath}
 
 fail() { echo "mitsuba.sh: $*" >&2; exit 1; }
 
