@@ -44,6 +44,7 @@ if ! "$VENV/bin/python" -c 'import mitsuba' 2>/dev/null; then
   "$VENV/bin/pip" install -q mitsuba==3.9.1 || fail "cannot install mitsuba==3.9.1 from PyPI"
 fi
 cargo build --release -q
+[ -x "$WP" ] || fail "no wavepath binary at $WP (WP)"
 # shellcheck disable=SC2086
 $WP mitsuba -s "$SPP" -m "$DEPTH" -r $RES ${EXPORT_ARGS:-} "$SCENE" "$OUT"
 

@@ -25,16 +25,17 @@ data=target/pgo-data
 rm -rf "$data"
 mkdir -p "$data"
 
-# The flags of .cargo/config.toml, which RUSTFLAGS replaces. Naming the
-# target explicitly keeps the flags off build scripts and proc macros,
-# so only wavepath itself is instrumented.
-native="-C target-cpu=native"
+# The flag of .cargo/config.toml (which these flags replace) and one
+# more, passed unsplit (CARGO_ENCODED_RUSTFLAGS: the profile's path may
+# hold spaces). Naming the target explicitly keeps the flags off build
+# scripts and proc macros, so only wavepath itself is instrumented.
 build() {
-  RUSTFLAGS="$native $1" cargo build --release --locked --target "$host" --target-dir "$2"
+  CARGO_ENCODED_RUSTFLAGS=$(printf '%s\x1f' -C target-cpu=native -C)$1 \
+    cargo build --release --locked --target "$host" --target-dir "$2"
 }
 
 echo "== instrumented build"
-build "-C profile-generate=$PWD/$data" target/pgo-train
+build "profile-generate=$PWD/$data" target/pgo-train
 trainer=target/pgo-train/$host/release/wavepath
 
 echo "== training renders (scenes/)"
@@ -64,7 +65,7 @@ done
 echo "merged with $profdata"
 
 echo "== optimised build"
-build "-C profile-use=$PWD/$data/merged.profdata" target/pgo
+build "profile-use=$PWD/$data/merged.profdata" target/pgo
 pgo=target/pgo/$host/release/wavepath
 
 echo "== check: the same image as the plain release build"
