@@ -305,4 +305,16 @@ fn mitsuba_writes_the_scene_and_refuses_bad_input_naming_the_file() {
     std::fs::write(&broken, "<COLLADA><library_geometries>").unwrap();
     let o = wavepath(&["mitsuba", broken.to_str().unwrap(), out.to_str().unwrap()]);
     assert_refused(&o, "broken.dae");
+
+    // The render's own limits on -s and -m (no sample_count 0, no
+    // max_depth that overflows when Mitsuba's one more is added).
+    for (flag, value) in [("-s", "0"), ("-m", "4294967295"), ("-m", "1001")] {
+        let o = wavepath(&["mitsuba", flag, value, SCENE, out.to_str().unwrap()]);
+        let err = text(&o.stderr);
+        assert!(!o.status.success(), "{flag} {value} accepted");
+        assert!(
+            err.contains(value) && !err.contains("panicked"),
+            "{flag} {value}: {err}"
+        );
+    }
 }

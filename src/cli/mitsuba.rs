@@ -57,10 +57,12 @@ pub struct MitsubaArgs {
     /// Directory to write scene.xml and meshes/ into (created if missing)
     pub out: PathBuf,
     /// Samples per pixel
-    #[arg(short = 's', long = "spp", value_name = "N", default_value_t = 64)]
+    #[arg(short = 's', long = "spp", value_name = "N", default_value_t = 64,
+          value_parser = clap::value_parser!(u32).range(1..))]
     pub spp: u32,
     /// Bounces as wavepath counts them (-m); Mitsuba's max_depth is one more
-    #[arg(short = 'm', long = "max-depth", value_name = "N", default_value_t = 5)]
+    #[arg(short = 'm', long = "max-depth", value_name = "N", default_value_t = 5,
+          value_parser = clap::value_parser!(u32).range(0..=1000))]
     pub max_depth: u32,
     /// Mitsuba's rr_depth (first depth at which its roulette plays) [default: where wavepath's starts]
     #[arg(long = "rr-depth", value_name = "N")]
@@ -162,13 +164,7 @@ pub fn write(scene: &Scene, settings: &Export, dir: &Path) -> Result<Vec<String>
             continue;
         }
         let name = format!("material{m}.ply");
-        let two_sided = matches!(
-            surface,
-            Surface::Emitter {
-                one_sided: false,
-                ..
-            }
-        );
+        let two_sided = is_two_sided_emitter(surface);
         let apart = if two_sided { separation } else { 0.0 };
         write_ply(&meshes.join(&name), scene, faces, false, apart)?;
         write_shape(&mut xml, &format!("meshes/{name}"), surface);
@@ -232,6 +228,18 @@ pub fn write(scene: &Scene, settings: &Export, dir: &Path) -> Result<Vec<String>
     let path = dir.join("scene.xml");
     std::fs::write(&path, xml).with_context(|| format!("{}: cannot write", path.display()))?;
     Ok(warnings)
+}
+
+/// Whether `surface` emits to both sides: Mitsuba's area emitters emit to
+/// one, so such a mesh is written twice (the second copy flipped).
+fn is_two_sided_emitter(surface: &Surface) -> bool {
+    matches!(
+        surface,
+        Surface::Emitter {
+            one_sided: false,
+            ..
+        }
+    )
 }
 
 /// How far a two-sided emitter's two copies sit apart (each moves half).
@@ -328,8 +336,8 @@ fn write_ply(path: &Path, scene: &Scene, faces: &[usize], flip: bool, apart: f32
             }
         }
     }
+    let corners = if flip { [2, 1, 0] } else { [0, 1, 2] };
     for k in 0..faces.len() as i32 {
-        let corners = if flip { [2, 1, 0] } else { [0, 1, 2] };
         bytes.push(3);
         for c in corners {
             bytes.extend_from_slice(&(3 * k + c).to_le_bytes());
@@ -557,15 +565,7 @@ mod tests {
                 backs += usize::from(back);
             }
             let two_sided_faces = (0..tris.len())
-                .filter(|&t| {
-                    matches!(
-                        surfaces[tris.material[t] as usize],
-                        Surface::Emitter {
-                            one_sided: false,
-                            ..
-                        }
-                    )
-                })
+                .filter(|&t| is_two_sided_emitter(&surfaces[tris.material[t] as usize]))
                 .count();
             assert_eq!(faces, tris.len() + two_sided_faces);
             assert_eq!(backs > 0, k == 1, "only the glowing box has a flipped copy");
