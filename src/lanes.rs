@@ -219,12 +219,45 @@ impl Vec3x8 {
     }
 
     /// `x / |x|` and the lanes where that is a usable unit vector
-    /// (finite, non-zero length).
+    /// (finite, non-zero length), as [`normalize_any_scale`] lane by lane.
     #[inline(always)]
     pub fn normalize(self) -> (Self, f32x8) {
-        let rcp = f32x8::ONE / self.length_squared().sqrt();
-        (self * rcp, rcp.is_finite() & rcp.simd_gt(f32x8::ZERO))
+        let m = to_bits(self.abs().max_element());
+        let exponent = m & i32x8::splat(EXPONENT_BITS);
+        let scale = i32x8::splat(ONE_SCALE_BITS) - exponent.min(i32x8::splat(MAX_SCALED_EXPONENT));
+        let v = self * from_bits(scale);
+        let rcp = f32x8::ONE / v.length_squared().sqrt();
+        (v * rcp, rcp.is_finite() & rcp.simd_gt(f32x8::ZERO))
     }
+}
+
+/// The exponent field of an f32.
+const EXPONENT_BITS: i32 = 0x7f80_0000;
+/// Bits of 2^(127 − E) are this minus the bits of 2^E.
+const ONE_SCALE_BITS: i32 = 0x7f00_0000;
+/// The largest exponent field scaled exactly (2^126): the factor for it,
+/// 2^−126, is the smallest normal power of two.
+const MAX_SCALED_EXPONENT: i32 = 0x7e80_0000;
+
+/// `v / |v|`, or `None` where that is not a usable unit vector (zero,
+/// non-finite), at any scale of `v`.
+///
+/// A cross product of two edges grows with the square of the scene's
+/// size, and its squared length with the fourth power: in f32 that
+/// overflows past edges of ~1e9 (the normal of a triangle 1e10 across
+/// would come out zero) and underflows below ~1e-10. So `v` is first
+/// multiplied by the power of two 2^(127 − E) that brings its largest
+/// component m = 1.f·2^E into [1, 2) (at the top of the range into
+/// [1, 4)). The scaling is exact, and `|s·v| = s·|v|` rounds as `|v|`
+/// does, so wherever the plain normalisation works this gives the same
+/// bits.
+#[inline]
+pub fn normalize_any_scale(v: Vec3) -> Option<Vec3> {
+    let m = v.abs().max_element().to_bits() as i32;
+    let scale = ONE_SCALE_BITS - (m & EXPONENT_BITS).min(MAX_SCALED_EXPONENT);
+    let v = v * f32::from_bits(scale as u32);
+    let rcp = 1.0 / v.length_squared().sqrt();
+    (rcp.is_finite() && rcp > 0.0).then_some(v * rcp)
 }
 
 impl std::ops::Add for Vec3x8 {
@@ -323,5 +356,72 @@ mod tests {
         store(&mut out, 0, load(&v, 0));
         store(&mut out, 8, load(&v, 8));
         assert_eq!(out, v);
+    }
+
+    #[test]
+    fn normalisation_works_at_any_scale_and_keeps_glams_bits_where_glam_works() {
+        let directions = [
+            Vec3::new(0.3, -0.4, 1.2),
+            Vec3::new(-1.0, 1e-4, 2e-3),
+            Vec3::new(0.0, 0.0, -7.0),
+            Vec3::new(5.0, 5.0, 5.0),
+        ];
+        for d in directions {
+            let expected = d.normalize();
+            // Scales whose squared length glam's f32 normalisation survives:
+            // the same bits (power-of-two prescaling is exact).
+            for scale in [1e-12f32, 1e-3, 1.0, 3.7, 1e6, 1e12] {
+                let v = d * scale;
+                assert_eq!(normalize_any_scale(v), Some(v.normalize()), "{v}");
+            }
+            // Scales where it overflows or underflows: still the unit vector.
+            for scale in [1e-30f32, 1e-22, 1e20, 1e30, 1e37] {
+                let v = d * scale;
+                assert!(v.normalize_or_zero() == Vec3::ZERO || scale < 1e20);
+                let got = normalize_any_scale(v).unwrap();
+                assert!((got - expected).length() < 1e-6, "{v}: {got}");
+                assert!(got.is_normalized());
+            }
+        }
+        for bad in [
+            Vec3::ZERO,
+            Vec3::new(f32::NAN, 1.0, 0.0),
+            Vec3::new(0.0, f32::INFINITY, 1.0),
+        ] {
+            assert_eq!(normalize_any_scale(bad), None, "{bad}");
+        }
+        // Subnormal components.
+        let tiny = Vec3::new(1e-44, -2e-44, 0.0);
+        let got = normalize_any_scale(tiny).unwrap();
+        assert!(
+            (got - Vec3::new(1.0, -2.0, 0.0).normalize()).length() < 0.1,
+            "{got}"
+        );
+    }
+
+    #[test]
+    fn lane_normalisation_is_the_scalar_one() {
+        let vs: [Vec3; LANES] = [
+            Vec3::new(0.3, -0.4, 1.2),
+            Vec3::new(1e20, -3e19, 2e20),
+            Vec3::new(1e-30, 0.0, -1e-31),
+            Vec3::ZERO,
+            Vec3::new(f32::NAN, 1.0, 0.0),
+            Vec3::new(3e38, 3e38, 1.0),
+            Vec3::new(0.0, f32::INFINITY, 0.0),
+            Vec3::new(1e-44, 1e-44, 1e-44),
+        ];
+        let (unit, ok) = Vec3x8::gather(&vs).normalize();
+        let ok = ok.to_bitmask();
+        for (lane, v) in vs.iter().enumerate() {
+            match normalize_any_scale(*v) {
+                Some(u) => {
+                    assert!(ok & (1 << lane) != 0, "{v}");
+                    let bits = |w: Vec3| w.to_array().map(f32::to_bits);
+                    assert_eq!(bits(unit.lane(lane)), bits(u), "{v}");
+                }
+                None => assert!(ok & (1 << lane) == 0, "{v}"),
+            }
+        }
     }
 }

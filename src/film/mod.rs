@@ -9,6 +9,10 @@ pub mod output;
 
 use glam::{DVec3, Vec3};
 
+/// The most pixels an image may have, rendered or read: 2^28 (16384²),
+/// whose film alone takes ~20 GB.
+pub const MAX_PIXELS: u64 = 1 << 28;
+
 /// A rectangle of pixels, in image coordinates (row 0 at the top).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tile {
@@ -44,8 +48,9 @@ impl Tile {
 #[derive(Clone, Debug)]
 pub struct TileFilm {
     pub tile: Tile,
-    /// Sum of the radiance samples.
-    pub sum: Vec<Vec3>,
+    /// Sum of the radiance samples, in f64: a sum of finite f32 samples
+    /// can overflow f32 (four samples of 1e38) where their mean does not.
+    pub sum: Vec<DVec3>,
     /// Sum of their squares, per channel (for the variance of the mean), in
     /// f64: `Σx² − n·mean²` cancels badly in f32 on low-noise pixels.
     pub sum_sq: Vec<DVec3>,
@@ -61,7 +66,7 @@ impl TileFilm {
         let n = tile.pixel_count();
         TileFilm {
             tile,
-            sum: vec![Vec3::ZERO; n],
+            sum: vec![DVec3::ZERO; n],
             sum_sq: vec![DVec3::ZERO; n],
             count: vec![0; n],
             illum_sum: vec![0.0; n],
@@ -79,8 +84,8 @@ impl TileFilm {
         let (mut illum_sum, mut illum_sq_sum) = (self.illum_sum[i], self.illum_sq_sum[i]);
         for &radiance in samples {
             let x = illuminance(radiance) as f64;
-            sum += radiance;
             let r = radiance.as_dvec3();
+            sum += r;
             sum_sq += r * r;
             illum_sum += x;
             illum_sq_sum += x * x;
@@ -131,7 +136,7 @@ impl Image {
                 let global = ((t.y0 + ty) * self.width + t.x0 + tx) as usize;
                 let n = film.count[local];
                 let mean = if n > 0 {
-                    film.sum[local] / n as f32
+                    (film.sum[local] / n as f64).as_vec3()
                 } else {
                     Vec3::ZERO
                 };
@@ -186,16 +191,34 @@ mod tests {
         in_runs.add(1, &samples[3..]);
         for film in [&one_by_one, &in_runs] {
             assert_eq!((film.count[0], film.count[1]), (0, 7));
-            assert_eq!(film.sum[0], Vec3::ZERO);
+            assert_eq!(film.sum[0], DVec3::ZERO);
         }
         assert_eq!(in_runs.sum[1], one_by_one.sum[1]);
         assert_eq!(in_runs.sum_sq[1], one_by_one.sum_sq[1]);
         assert_eq!(in_runs.illum_sum[1], one_by_one.illum_sum[1]);
         assert_eq!(in_runs.illum_sq_sum[1], one_by_one.illum_sq_sum[1]);
         // And they are the sums they stand for.
-        let sum: Vec3 = samples.iter().sum();
-        assert!((in_runs.sum[1] - sum).abs().max_element() < 1e-5);
+        let sum: DVec3 = samples.iter().map(|s| s.as_dvec3()).sum();
+        assert!((in_runs.sum[1] - sum).abs().max_element() < 1e-9);
         let illum: f64 = samples.iter().map(|&s| illuminance(s) as f64).sum();
         assert!((in_runs.illum_sum[1] - illum).abs() < 1e-9);
+    }
+
+    #[test]
+    fn bright_finite_samples_average_to_a_finite_pixel() {
+        // Four samples of 3e38 sum past f32's largest value (3.4e38); the
+        // mean of finite samples is finite, and the pixel must say so.
+        let tile = Tile {
+            x0: 0,
+            y0: 0,
+            width: 1,
+            height: 1,
+        };
+        let mut film = TileFilm::new(tile);
+        film.add(0, &[Vec3::splat(3e38); 4]);
+        let mut image = Image::new(1, 1);
+        image.store(&film);
+        assert_eq!(image.pixels[0], Vec3::splat(3e38));
+        assert_eq!(image.non_finite_count(), 0);
     }
 }

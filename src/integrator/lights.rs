@@ -10,7 +10,7 @@ use wide::f32x8;
 
 use super::bsdf::Surface;
 use crate::bvh::END_CLEARANCE;
-use crate::lanes::{LANES, Vec3x8};
+use crate::lanes::{LANES, Vec3x8, normalize_any_scale};
 use crate::ray::{gamma, offset_by, offset_by_x8};
 use crate::sampling::warp;
 use crate::scene::{Light, Scene};
@@ -129,7 +129,7 @@ impl LightSource {
                 let q_err = gamma(7) * a.abs().max(b.abs()).max(c.abs()).max_element();
                 let extent = (a - q).abs().max((b - q).abs()).max((c - q).abs());
                 // Two-sided: the normal that faces p.
-                let ng = (b - a).cross(c - a).normalize_or_zero();
+                let ng = normalize_any_scale((b - a).cross(c - a)).unwrap_or(Vec3::ZERO);
                 let facing = if ng.dot(p - q) >= 0.0 { ng } else { -ng };
                 let x8 = Vec3x8::splat;
                 connect_x8(
@@ -485,7 +485,9 @@ impl LightSet {
                 one_sided: false,
             } = surfaces[tris.material[t] as usize]
             {
-                let area = 0.5 * tris.geometric_normal(t).length() as f64;
+                // In f64: the squared length of a 1e10-wide triangle's normal
+                // overflows f32.
+                let area = 0.5 * tris.geometric_normal(t).as_dvec3().length();
                 if area > 0.0 && le.max_element() > 0.0 {
                     total += area;
                     triangles.push(tris.vertices(t));

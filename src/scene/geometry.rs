@@ -6,6 +6,8 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::lanes::normalize_any_scale;
+
 /// Axis-aligned bounding box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
@@ -111,7 +113,7 @@ impl Triangles {
             + v * self.normals[c as usize];
         // The fallback is computed only when needed (degenerate normals).
         n.try_normalize()
-            .unwrap_or_else(|| self.geometric_normal(tri).normalize_or(Vec3::Y))
+            .unwrap_or_else(|| normalize_any_scale(self.geometric_normal(tri)).unwrap_or(Vec3::Y))
     }
 }
 

@@ -2,6 +2,8 @@
 
 use glam::Vec3;
 
+use crate::lanes::normalize_any_scale;
+
 #[derive(Clone, Debug, PartialEq)]
 pub enum Light {
     /// Isotropic point light; irradiance falls off as `intensity / d²`.
@@ -36,7 +38,7 @@ impl Light {
     /// shears the rectangle.
     pub fn area(&self) -> f32 {
         match self {
-            Light::Area { dim_x, dim_y, .. } => dim_x.cross(*dim_y).length(),
+            Light::Area { dim_x, dim_y, .. } => dim_x.cross(*dim_y).as_dvec3().length() as f32,
             _ => 0.0,
         }
     }
@@ -51,7 +53,7 @@ impl Light {
                 dim_y,
                 ..
             } => {
-                let n = dim_x.cross(*dim_y).normalize_or(*normal);
+                let n = normalize_any_scale(dim_x.cross(*dim_y)).unwrap_or(*normal);
                 Some(if n.dot(*normal) < 0.0 { -n } else { n })
             }
             _ => None,

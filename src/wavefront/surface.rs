@@ -426,7 +426,7 @@ mod tests {
         t: f32,
     ) -> SurfacePoint {
         let [a, b, c] = tris.vertices(i);
-        let ng = (b - a).cross(c - a).normalize_or(Vec3::Y);
+        let ng = crate::lanes::normalize_any_scale((b - a).cross(c - a)).unwrap_or(Vec3::Y);
         let (a64, o64, d64) = (a.as_dvec3(), origin.as_dvec3(), dir.as_dvec3());
         let n64 = (b.as_dvec3() - a64).cross(c.as_dvec3() - a64);
         let t64 = (a64 - o64).dot(n64) / d64.dot(n64);
@@ -564,6 +564,32 @@ mod tests {
             );
             assert_eq!(got.err.to_bits(), expected.err.to_bits(), "hit {i} err");
             assert_eq!(got.front, expected.front, "hit {i} front");
+        }
+    }
+
+    #[test]
+    fn normals_of_huge_and_tiny_triangles_are_theirs_not_the_fallback() {
+        // Edges of 1e10 square to 1e20 in the cross product and to 1e40,
+        // past f32, in its squared length; edges of 1e-12 underflow.
+        for scale in [1e-12f32, 1.0, 1e10, 1e15] {
+            let mut g = Geometry::default();
+            let t = &mut g.triangles;
+            t.positions = vec![Vec3::ZERO, Vec3::X * scale, Vec3::Y * scale];
+            t.normals = vec![Vec3::ZERO; 3];
+            t.indices = vec![[0, 1, 2]];
+            t.material = vec![0];
+            let (mut rays, mut hits) = (Rays::default(), Hits::default());
+            let o = Vec3::new(0.25, 0.25, 1.0) * scale;
+            rays.push(o, -Vec3::Z, f32::INFINITY);
+            hits.t.push(scale);
+            hits.prim.push(0);
+            hits.u.push(0.25);
+            hits.v.push(0.25);
+            let mut points = SurfacePoints::default();
+            points.compute(&g, &TriangleRecords::new(&g.triangles), &hits, &rays);
+            let sp = points.get(0);
+            assert_eq!((sp.ng, sp.ns), (Vec3::Z, Vec3::Z), "scale {scale}");
+            assert!(sp.front, "scale {scale}");
         }
     }
 }
