@@ -817,3 +817,152 @@ fn unusable_material_records_fall_back_to_grey_with_a_warning() {
     assert_eq!(e.element.as_deref(), Some("radiance"), "{e}");
     assert!(e.message.contains("negative"), "{e}");
 }
+
+#[test]
+fn clipping_planes_are_checked_against_the_defaults_of_the_one_not_given() {
+    // A lone <znear> past the default zfar (1000), a lone <zfar> short of
+    // the default znear (0.001), a negative one: each would clip every ray.
+    for (near, far, words) in [
+        ("<znear>5000</znear>", "", "zfar 1000 (the default)"),
+        ("", "<zfar>0.0005</zfar>", "znear 0.001 (the default)"),
+        ("", "<zfar>-1</zfar>", "must satisfy"),
+    ] {
+        let text = edits(&[
+            ("<znear>0.1</znear>", near),
+            ("<zfar>100</zfar>", far),
+            ("<perspective>", "<perspective> <!-- here -->"),
+        ]);
+        expect_at(&text, "perspective", "<!-- here -->", words);
+    }
+}
+
+#[test]
+fn comments_inside_numbers_are_skipped_not_taken_for_the_end() {
+    let base = load_str(BASE, Path::new(NAME)).unwrap();
+    // The triangle's index list and the sphere's radius, each split by a
+    // comment: the same scene as without the comments.
+    let text = edits(&[
+        (
+            "<p>0 0 0 1 0 1 2 0 2</p>",
+            "<p>0 0 0 1 0 <!-- c -->1 2 0 2</p>",
+        ),
+        ("<radius>0.5</radius>", "<radius><!-- r -->0.5</radius>"),
+        (
+            r#"count="9">0 0 0 1 0 0 0 1 0"#,
+            r#"count="9">0 0 0 1<!-- x -->0 0 0 0 1 0"#,
+        ),
+    ]);
+    let scene = load_str(&text, Path::new(NAME)).unwrap();
+    let (a, b) = (&base.geometry, &scene.geometry);
+    assert_eq!(b.triangles.indices, a.triangles.indices);
+    assert_eq!(b.spheres.radius, a.spheres.radius);
+    // "1<!-- x -->0" is the number 10, as XML reads it.
+    assert_eq!(
+        b.triangles.positions.len(),
+        a.triangles.positions.len(),
+        "{:?}",
+        b.triangles.positions
+    );
+    assert_ne!(b.triangles.positions, a.triangles.positions);
+    // An element among numbers is an error, not silently skipped.
+    case(
+        "<p>0 0 0 1 0 1 2 0 2</p>",
+        "<p>0 0 0 1 0 1 <q/> 2 0 2</p>",
+        "p",
+        "<q> where only numbers belong",
+    );
+}
+
+#[test]
+fn instancing_to_more_triangles_than_the_renderer_takes_is_refused_up_front() {
+    // 2^26 + 2^26 triangles from a one-triangle mesh: a chain of 27 nodes,
+    // each instancing the next twice (within the node-visit limit it would
+    // never get to; the count comes first, with nothing built).
+    let mut chain = String::new();
+    for i in 0..27 {
+        chain.push_str(&format!(
+            r##"<node id="n{i}"><instance_node url="#n{}"/><instance_node url="#n{}"/></node>"##,
+            i + 1,
+            i + 1
+        ));
+    }
+    chain.push_str(r##"<node id="n27"><instance_geometry url="#tri"/></node>"##);
+    let text = edits(&[
+        (
+            "<library_visual_scenes>",
+            &format!("<library_nodes>{chain}</library_nodes><library_visual_scenes>"),
+        ),
+        (
+            r#"<node id="lamp-node">"#,
+            r##"<node id="lamp-node"><instance_node url="#n0"/>"##,
+        ),
+    ]);
+    let e = expect_at(
+        &text,
+        "visual_scene",
+        r#"<visual_scene id="world">"#,
+        "134217729 triangles, more than",
+    );
+    assert!(e.message.contains("2^26"), "{e}");
+}
+
+#[test]
+fn repeated_ids_huge_scenes_empty_scenes_and_bright_albedos_are_warned_about() {
+    let warnings = |text: &str| load_str(text, Path::new(NAME)).unwrap().warnings;
+    let has = |w: &[String], words: &str| w.iter().any(|w| w.contains(words));
+    let text = edit(r#"<node id="camera-node">"#, r#"<node id="lamp-node">"#);
+    let w = warnings(&text);
+    let earlier = line_of(&text, "<matrix>") - 1;
+    assert!(
+        has(
+            &w,
+            &format!(r#"id "lamp-node" is already the id of the <node> on line {earlier}"#)
+        ),
+        "{w:?}"
+    );
+    let w = warnings(&edit(
+        r#"count="9">0 0 0 1 0 0 0 1 0"#,
+        r#"count="9">0 0 0 1e13 0 0 0 1e13 0"#,
+    ));
+    assert!(has(&w, "coordinates reach 1e13"), "{w:?}");
+    let w = warnings(&edits(&[
+        (
+            r##"<instance_geometry url="#tri">"##,
+            r##"<instance_light url="#lamp">"##,
+        ),
+        (
+            r##"<instance_geometry url="#ball">"##,
+            r##"<instance_light url="#lamp">"##,
+        ),
+        (
+            "        </instance_geometry>\n      </node>\n      <node id=\"ball-node\">",
+            "        </instance_light>\n      </node>\n      <node id=\"ball-node\">",
+        ),
+        (
+            "        </instance_geometry>\n      </node>\n    </visual_scene>",
+            "        </instance_light>\n      </node>\n    </visual_scene>",
+        ),
+    ]));
+    assert!(has(&w, "no geometry"), "{w:?}");
+    let w = warnings(&edit(
+        "<color>0.5 0.5 0.5 1</color>",
+        "<color>0.5 1.5 0.5 1</color>",
+    ));
+    assert!(has(&w, "component of 1.5e0: above 1"), "{w:?}");
+    // None of these for the base scene.
+    assert!(warnings(BASE).is_empty());
+}
+
+#[test]
+fn a_named_pipe_is_refused_instead_of_read_forever() {
+    let fifo = scratch().join("scene.dae");
+    let _ = std::fs::remove_file(&fifo);
+    let made = Command::new("mkfifo").arg(&fifo).status();
+    if !made.is_ok_and(|s| s.success()) {
+        eprintln!("skipped: mkfifo is not available here");
+        return;
+    }
+    let e = load_file(&fifo).unwrap_err();
+    assert!(e.to_string().contains("not a regular file"), "{e}");
+    std::fs::remove_file(&fifo).unwrap();
+}

@@ -174,7 +174,13 @@ fn nonsense_values_are_refused_with_a_usage_hint() {
         vec!["-a", "32", "-1", scene],
         vec!["-a", "0", "0.05", scene],
         vec!["-l", "0", scene],
+        // Past the limits that keep memory and threads bounded.
+        vec!["-l", "1025", scene],
+        vec!["-l", "4294967295", scene],
         vec!["-t", "0", scene],
+        vec!["-t", "4294967295", scene],
+        // Found before rendering, not after.
+        vec!["-f", "no/such/folder/out.exr", scene],
         vec!["-b", "-1", scene],
         vec!["-f", "out.jpg", scene],
         vec!["--shading", "wireframe", scene],
@@ -312,4 +318,40 @@ fn ctrl_c_writes_what_was_rendered() {
         image.pixels.iter().any(|p| p.max_element() > 0.0),
         "nothing was kept"
     );
+}
+
+#[test]
+fn non_finite_pixels_are_said_and_written_as_zero() {
+    // Walls of albedo 3e38: the second bounce's throughput overflows to
+    // infinity, which the files cannot hold; the user must be told, not
+    // shown a black pixel as if it were one.
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae"))
+        .unwrap()
+        .replace("0.6 0.6 0.6 1", "3e38 3e38 3e38 1");
+    let scene = scratch("overflow.dae");
+    std::fs::write(&scene, text).unwrap();
+    let out = scratch("overflow.exr");
+    let o = wavepath(&[
+        "-q",
+        "--no-adaptive",
+        "-s",
+        "2",
+        "-m",
+        "3",
+        "-r",
+        "24",
+        "18",
+        "-f",
+        out.to_str().unwrap(),
+        scene.to_str().unwrap(),
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("reflects more light than it receives"),
+        "{err}"
+    );
+    assert!(err.contains("pixels are NaN or infinite"), "{err}");
+    let image = read_image(&out).unwrap();
+    assert!(image.pixels.iter().all(|p| p.is_finite()));
 }

@@ -127,6 +127,45 @@ fn compare_refuses_bad_input_naming_the_file() {
     let o = wavepath(&["compare", &s(&good)]);
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o.stderr).contains("wavepath compare"));
+
+    // A header that claims 100000×100000 pixels (40 GB to decode) in a
+    // file of a few hundred bytes: refused from the header.
+    let mut bytes = std::fs::read(&good).unwrap();
+    let key = b"dataWindow\0box2i\0";
+    let at = bytes.windows(key.len()).position(|w| w == key).unwrap() + key.len() + 4;
+    for (k, v) in [(8, 99_999i32), (12, 99_999)] {
+        bytes[at + k..at + k + 4].copy_from_slice(&v.to_le_bytes());
+    }
+    let huge = dir.join("huge.exr");
+    std::fs::write(&huge, &bytes).unwrap();
+    let o = wavepath(&["compare", &s(&huge), &s(&good)]);
+    assert_refused(&o, "huge.exr");
+    assert!(
+        text(&o.stderr).contains("100000x100000"),
+        "{}",
+        text(&o.stderr)
+    );
+}
+
+#[test]
+fn compare_goes_quietly_when_its_reader_stops_reading() {
+    // `wavepath compare a b | head -1`: the pipe closes before the report
+    // is written, which must not be a panic.
+    let dir = scratch("compare_pipe");
+    let image = dir.join("a.exr");
+    render(&image, 16, 12, 1, 0);
+    let path = image.to_str().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_wavepath"))
+        .args(["compare", path, path])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    let err = text(&o.stderr);
+    assert!(o.status.success(), "{:?}: {err}", o.status);
+    assert!(!err.contains("panicked"), "{err}");
 }
 
 #[test]
@@ -226,6 +265,36 @@ fn converge_refuses_bad_references_naming_the_file() {
         &["converge", "-r", "8", "6", "--ref", "big.exr", SCENE],
     );
     assert_refused(&o, "big.exr");
+    // A reference with a NaN pixel (written by another program: wavepath
+    // writes none) would make every error NaN.
+    let (w, h) = (8usize, 6usize);
+    exr::prelude::write_rgb_file(dir.join("nan.exr"), w, h, |x, y| {
+        let g = if (x, y) == (5, 0) { f32::NAN } else { 0.5 };
+        (0.5, g, 0.5)
+    })
+    .unwrap();
+    let o = wavepath_in(
+        &dir,
+        &[
+            "converge",
+            "-r",
+            &w.to_string(),
+            &h.to_string(),
+            "--ref",
+            "nan.exr",
+            SCENE,
+        ],
+    );
+    assert_refused(&o, "nan.exr");
+    assert!(text(&o.stderr).contains("NaN"));
+    // The plot is SVG whatever its name says; a .png name is refused
+    // before anything is rendered.
+    let o = wavepath_in(
+        &dir,
+        &["converge", "--ref", "big.exr", "--plot", "plot.png", SCENE],
+    );
+    assert_refused(&o, "plot.png");
+    assert!(!dir.join("plot.png").exists());
 }
 
 #[test]
@@ -308,7 +377,14 @@ fn mitsuba_writes_the_scene_and_refuses_bad_input_naming_the_file() {
 
     // The render's own limits on -s and -m (no sample_count 0, no
     // max_depth that overflows when Mitsuba's one more is added).
-    for (flag, value) in [("-s", "0"), ("-m", "4294967295"), ("-m", "1001")] {
+    for (flag, value) in [
+        ("-s", "0"),
+        ("-m", "4294967295"),
+        ("-m", "1001"),
+        // Mitsuba reads rr_depth as a signed 32-bit integer.
+        ("--rr-depth", "2147483648"),
+        ("--rr-depth", "0"),
+    ] {
         let o = wavepath(&["mitsuba", flag, value, SCENE, out.to_str().unwrap()]);
         let err = text(&o.stderr);
         assert!(!o.status.success(), "{flag} {value} accepted");

@@ -8,6 +8,13 @@ use crate::bvh::Accel;
 use crate::film::output::ToneCurve;
 use crate::integrator::{Bounces, View};
 
+/// Most `-l` samples: every path vertex holds this many draws, and its
+/// shadow rays, per light, for a whole wave at once (at 1024, ~250 MB per
+/// thread and light).
+pub const MAX_LIGHT_SAMPLES: u32 = 1024;
+/// Most `-t` worker threads.
+pub const MAX_THREADS: u32 = 1024;
+
 #[derive(Parser, Debug, Clone)]
 #[command(
     name = "wavepath",
@@ -30,12 +37,12 @@ pub struct Args {
 
     /// Samples per area light (and per hemisphere light or emissive mesh)
     #[arg(short = 'l', long = "light-samples", value_name = "N", default_value_t = 1,
-          value_parser = clap::value_parser!(u32).range(1..))]
+          value_parser = clap::value_parser!(u32).range(1..=MAX_LIGHT_SAMPLES as i64))]
     pub light_samples: u32,
 
     /// Worker threads [default: all cores]
     #[arg(short = 't', long = "threads", value_name = "N",
-          value_parser = clap::value_parser!(u32).range(1..))]
+          value_parser = clap::value_parser!(u32).range(1..=MAX_THREADS as i64))]
     pub threads: Option<u32>,
 
     /// Maximum ray depth: bounces of light (0 = emission only, 1 = direct lighting)

@@ -145,16 +145,20 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
         }
     }
     let m = metrics::compare(&image, &reference)?;
-    println!(
+    say!(
         "{} vs reference {} ({}x{})",
         args.image.display(),
         args.reference.display(),
         image.width,
         image.height
     );
-    println!(
+    say!(
         "{:<8} {:>12} {:>12} {:>10} {:>12}",
-        "channel", "RMSE", "relMSE", "MAPE %", "max error"
+        "channel",
+        "RMSE",
+        "relMSE",
+        "MAPE %",
+        "max error"
     );
     let names = ["R", "G", "B"];
     for (name, c) in names
@@ -163,14 +167,17 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
         .zip(&m.channels)
         .chain(std::iter::once(("all", &m.overall)))
     {
-        println!(
+        say!(
             "{name:<8} {:>12.4e} {:>12.4e} {:>10.3} {:>12.4e}",
-            c.rmse, c.rel_mse, c.mape, c.max_error
+            c.rmse,
+            c.rel_mse,
+            c.mape,
+            c.max_error
         );
     }
     let has_error = |im: &Image| im.variance.iter().any(|v| *v != Vec3::ZERO);
     if has_error(&reference) {
-        println!(
+        say!(
             "reference noise: its own relMSE is about {:.3e} (from its standard-error channels)",
             metrics::rel_mse_from_variance(&reference)
         );
@@ -179,7 +186,7 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
         let alpha = 1e-3;
         // Not `same_estimator`: the two files may come from different estimators.
         let t = metrics::z_test(&image, &reference, alpha, false)?;
-        println!(
+        say!(
             "same-mean test (alpha {alpha} each): max |z| {:.2} at ({}, {}, {}) vs Bonferroni {:.2}; \
              global z {:.2} vs {:.2}: {}",
             t.max_abs_z,
@@ -198,7 +205,7 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
     }
     if let Some(path) = &args.diff {
         let scale = write_diff(&image, &reference, path, args.diff_scale)?;
-        println!(
+        say!(
             "wrote {}: per-pixel relative error |x - ref| / (|ref| + {REL_EPSILON}), mean of R, G, B; \
              black = 0, blue {:.3e}, green {:.3e}, yellow {:.3e}, red >= {:.3e}",
             path.display(),

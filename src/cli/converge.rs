@@ -191,6 +191,16 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
             "converge: -f is not used; name the reference with --ref, outputs with --csv and --plot"
         );
     }
+    if let Some(plot) = &args.plot
+        && !plot
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("svg"))
+    {
+        bail!(
+            "--plot {}: the plot is written as SVG; give a .svg file name",
+            plot.display()
+        );
+    }
     if !args.plot_csv.is_empty() {
         return plot_csv_files(&args);
     }
@@ -267,7 +277,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
             return Ok(super::EXIT_INTERRUPTED);
         }
         output::write_exr_with_error(&out.image, &reference_path)?;
-        println!(
+        say!(
             "wrote {} ({} spp in {secs:.1} s); its own relMSE, estimated from its variance: {:.3e}",
             reference_path.display(),
             settings.spp,
@@ -290,6 +300,13 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
             reference.height
         );
     }
+    let bad = reference.non_finite_count();
+    if bad > 0 {
+        bail!(
+            "{}: {bad} pixels are NaN or infinite; every error against it would be NaN",
+            reference_path.display()
+        );
+    }
     let floor = metrics::rel_mse_from_variance(&reference);
     if reference.variance.iter().all(|v| *v == glam::Vec3::ZERO) {
         eprintln!(
@@ -297,7 +314,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
             reference_path.display()
         );
     } else {
-        println!(
+        say!(
             "reference {}: own relMSE about {floor:.3e} (measured relMSE = true relMSE + this, in expectation)",
             reference_path.display()
         );
@@ -315,7 +332,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         args.max_spp
     };
 
-    println!(
+    say!(
         "{scene_name}: {}x{}, -m {}, -l {}, seed {}, {threads} threads",
         settings.width,
         settings.height,
@@ -323,9 +340,15 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         settings.integrator.light_samples,
         settings.seed
     );
-    println!(
+    say!(
         "{:<12} {:>7} {:>10} {:>10} {:>12} {:>12} {:>14}",
-        "estimator", "spp", "seconds", "cpu s", "relMSE", "RMSE", "relMSE-floor"
+        "estimator",
+        "spp",
+        "seconds",
+        "cpu s",
+        "relMSE",
+        "RMSE",
+        "relMSE-floor"
     );
     let mut rows: Vec<Row> = Vec::new();
     let mut interrupted = false;
@@ -349,7 +372,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
                 rel_mse: m.overall.rel_mse,
                 rmse: m.overall.rmse,
             };
-            println!(
+            say!(
                 "{:<12} {:>7} {:>10.3} {:>10} {:>12.4e} {:>12.4e} {:>14.4e}",
                 estimator.name(),
                 spp,
@@ -385,7 +408,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     }
     std::fs::write(&args.csv, csv)
         .with_context(|| format!("{}: cannot write CSV", args.csv.display()))?;
-    println!("wrote {}", args.csv.display());
+    say!("wrote {}", args.csv.display());
 
     let curves: Vec<Curve> = estimators
         .iter()
@@ -416,7 +439,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         );
         let floor_line = (floor > 0.0).then_some((floor, "reference noise"));
         plot::error_vs_time(&plot_path, &title, "relMSE", &curves, floor_line)?;
-        println!("wrote {}", plot_path.display());
+        say!("wrote {}", plot_path.display());
     }
 
     for c in &curves {
@@ -436,14 +459,14 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
                 Some((t, true)) => format!("<= {t:.3} s (first budget)"),
                 None => "not reached".to_string(),
             };
-            println!(
+            say!(
                 "{}: time to relMSE <= {target:.0e}: {} (measured), {} (less the reference's noise)",
                 c.name,
                 describe(time_to_reach(&c.points, target)),
                 describe(time_to_reach(&corrected, target))
             );
             if let Some(idle) = &idle {
-                println!(
+                say!(
                     "{}: time to relMSE <= {target:.0e} from CPU time / {threads} threads: {} (less the reference's noise)",
                     c.name,
                     describe(time_to_reach(idle, target))
@@ -513,7 +536,7 @@ fn plot_csv_files(args: &ConvergeArgs) -> Result<i32> {
         }
     }
     plot::error_vs_time(plot_path, "relMSE vs render time", "relMSE", &curves, None)?;
-    println!("wrote {}", plot_path.display());
+    say!("wrote {}", plot_path.display());
     Ok(0)
 }
 

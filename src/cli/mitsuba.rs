@@ -65,7 +65,8 @@ pub struct MitsubaArgs {
           value_parser = clap::value_parser!(u32).range(0..=1000))]
     pub max_depth: u32,
     /// Mitsuba's rr_depth (first depth at which its roulette plays) [default: where wavepath's starts]
-    #[arg(long = "rr-depth", value_name = "N")]
+    #[arg(long = "rr-depth", value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=i32::MAX as i64))]
     pub rr_depth: Option<u32>,
     /// Resolution in pixels
     #[arg(
@@ -82,6 +83,9 @@ pub struct MitsubaArgs {
 /// Runs `wavepath mitsuba`; returns the exit status.
 pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
     let args = MitsubaArgs::parse_from(argv);
+    if let Err(e) = super::check_pixel_count(&args.resolution) {
+        anyhow::bail!(e);
+    }
     let scene = collada::load_file(&args.scene)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");

@@ -5,6 +5,15 @@
 //! parsed, so that `wavepath [options] <scene.dae>` is unchanged (a scene
 //! file literally named `compare` is given as `./compare`).
 
+/// `println!` for the reports on stdout, which does not panic when stdout
+/// is closed early (`wavepath compare a.exr b.exr | head -1`): see
+/// [`say_line`].
+macro_rules! say {
+    ($($arg:tt)*) => {
+        $crate::cli::say_line(format_args!($($arg)*))
+    };
+}
+
 mod args;
 pub mod compare;
 pub mod converge;
@@ -104,11 +113,8 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
     if args.region.is_some() {
         fail("-p: rendering a sub-rectangle is not supported yet; render the whole image".into());
     }
-    if args.resolution[0] as u64 * args.resolution[1] as u64 > 1 << 28 {
-        fail(format!(
-            "-r {} {}: more than 2^28 pixels",
-            args.resolution[0], args.resolution[1]
-        ));
+    if let Err(e) = check_pixel_count(&args.resolution) {
+        fail(e);
     }
     if let Some(e) = &args.envmap {
         fail(format!(
@@ -125,6 +131,18 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
     });
     if let Err(e) = output::Format::from_path(&output) {
         fail(e.to_string());
+    }
+    // Found out now rather than after the render.
+    let folder = output
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    if !folder.is_dir() {
+        fail(format!(
+            "-f {}: there is no folder {}",
+            output.display(),
+            folder.display()
+        ));
     }
     let settings = RenderSettings {
         width: args.resolution[0],
@@ -148,6 +166,33 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
         },
     };
     (settings, output)
+}
+
+/// Writes a line of a report to stdout. When the reader has gone (a
+/// broken pipe) the rest of the report is dropped quietly and the command
+/// goes on, so whatever files it writes are still written; any other
+/// failure is said once on stderr.
+pub(crate) fn say_line(line: std::fmt::Arguments) {
+    use std::io::Write;
+    static FAILED: AtomicBool = AtomicBool::new(false);
+    if FAILED.load(Ordering::Relaxed) {
+        return;
+    }
+    if let Err(e) = writeln!(std::io::stdout().lock(), "{line}") {
+        FAILED.store(true, Ordering::Relaxed);
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            eprintln!("warning: cannot write to stdout: {e}");
+        }
+    }
+}
+
+/// `-r W H` within [`MAX_PIXELS`](crate::film::MAX_PIXELS).
+fn check_pixel_count(resolution: &[u32]) -> std::result::Result<(), String> {
+    let (w, h) = (resolution[0], resolution[1]);
+    if w as u64 * h as u64 > crate::film::MAX_PIXELS {
+        return Err(format!("-r {w} {h}: more than 2^28 pixels"));
+    }
+    Ok(())
 }
 
 /// A rayon pool of `-t` threads (all cores by default), and its size.
@@ -243,6 +288,13 @@ pub fn run() -> Result<i32> {
     bar.finish_and_clear();
 
     let with_rate = settings.adaptive.is_some();
+    let bad = result.image.non_finite_count();
+    if bad > 0 {
+        // Image files get 0 there; said, so that it is not taken for black.
+        eprintln!(
+            "warning: {bad} pixels are NaN or infinite (radiance beyond f32's range?); written as 0"
+        );
+    }
     output::write_image(&result.image, &output_path, args.tonemap, with_rate)?;
     if with_rate {
         output::write_rate_png(&result.image, &output::rate_path(&output_path))?;

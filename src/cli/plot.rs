@@ -35,7 +35,10 @@ pub fn error_vs_time(
     floor: Option<(f64, &str)>,
 ) -> Result<()> {
     let err = |e: &dyn std::fmt::Display| anyhow!("{}: cannot write plot: {e}", path.display());
-    let finite = |v: f64| v.is_finite() && v > 0.0;
+    // What a log axis can show: positive, and far enough from the ends of
+    // f64 that the padded range below stays finite (the axis code loops
+    // forever on an infinite end).
+    let finite = |v: f64| (1e-300..=1e300).contains(&v);
     let pts = || {
         curves
             .iter()

@@ -172,10 +172,12 @@ fn write_exr_channels(image: &Image, path: &Path, with_rate: bool, with_error: b
         },
         AnyChannels::sort(channels),
     );
+    // The exr crate's I/O error names its cause again as its source, so
+    // it is formatted here once rather than chained.
     exr::prelude::Image::from_layer(layer)
         .write()
         .to_file(path)
-        .with_context(|| format!("{}: cannot write EXR", path.display()))
+        .map_err(|e| anyhow::anyhow!("{}: cannot write EXR: {e}", path.display()))
 }
 
 /// `<stem>_rate.png` beside `path`.
@@ -238,8 +240,23 @@ pub fn read_image_with(path: &Path, curve: ToneCurve) -> Result<Image> {
 /// Reads the first layer of an EXR: R, G, B (or Y for grey) are required.
 fn read_exr(path: &Path) -> Result<Image> {
     use exr::prelude::read_first_flat_layer_from_file;
-    let decoded = read_first_flat_layer_from_file(path)
-        .with_context(|| format!("{}: cannot read EXR", path.display()))?;
+    let cannot_read =
+        |e: exr::error::Error| anyhow::anyhow!("{}: cannot read EXR: {e}", path.display());
+    // The header first: a few hundred bytes can claim 1e10 pixels, which
+    // the decoder would try to allocate before finding the data missing.
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(cannot_read)?;
+    if let Some(header) = meta.headers.first() {
+        let size = header.layer_size;
+        if size.0 as u64 * size.1 as u64 > super::MAX_PIXELS {
+            bail!(
+                "{}: the EXR claims {}x{} pixels, more than the 2^28 this program reads",
+                path.display(),
+                size.0,
+                size.1
+            );
+        }
+    }
+    let decoded = read_first_flat_layer_from_file(path).map_err(cannot_read)?;
     let layer = decoded.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());
     let find = |name: &str| -> Option<Vec<f32>> {

@@ -42,6 +42,12 @@ pub struct Perspective {
 }
 
 impl Perspective {
+    /// The near and far clipping distances, with the reference's defaults
+    /// (0.001 and 1000) for those not given.
+    pub fn clip_range(&self) -> (f32, f32) {
+        (self.znear.unwrap_or(0.001), self.zfar.unwrap_or(1000.0))
+    }
+
     /// (hfov, vfov) in degrees before fitting, with the reference's defaults.
     pub fn fov_degrees(&self) -> (f32, f32) {
         let h = self.xfov.unwrap_or(50.0);
@@ -105,13 +111,14 @@ impl Camera {
         };
         let screen_distance = FIT_HEIGHT / (2.0 * tan_v);
 
+        let (znear, zfar) = optics.clip_range();
         Camera {
             position,
             target,
             camera_to_world: Mat3::from_cols(screen_x, screen_y, back),
             screen_distance,
-            znear: optics.znear.unwrap_or(0.001),
-            zfar: optics.zfar.unwrap_or(1000.0),
+            znear,
+            zfar,
         }
     }
 

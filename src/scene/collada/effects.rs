@@ -153,6 +153,16 @@ fn parse_effect(
                     format!("diffuse colour {albedo} has a negative component"),
                 ));
             }
+            if albedo.max_element() > 1.0 {
+                // Kept, as the reference keeps it: a test scene may want it.
+                warnings.push(src.warning(
+                    color,
+                    format!(
+                        "diffuse colour has a component of {:e}: above 1, it reflects more light than it receives, and with several bounces the image can grow without bound",
+                        albedo.max_element()
+                    ),
+                ));
+            }
             Ok(Material::Diffuse { albedo })
         }
         None => {

@@ -27,6 +27,7 @@ use error::Source;
 use mesh::LocalMesh;
 use xml::{Ids, child, children, path};
 
+use crate::lanes::normalize_any_scale;
 use crate::scene::{Camera, Geometry, Light, Material, NamedMaterial, Perspective, Scene};
 
 /// How deep `<node>`/`<instance_node>` nesting may go.
@@ -34,11 +35,27 @@ const MAX_NODE_DEPTH: usize = 256;
 /// How many node instances the scene graph may expand to: `<instance_node>`
 /// chains can multiply without a cycle (each node instancing the next twice).
 const MAX_NODE_VISITS: usize = 1 << 20;
+/// How many triangles the instanced meshes may add up to: a few hundred
+/// bytes each once loaded, built into a BVH and shaded, so 2^26 already
+/// takes ~20 GB. A small file can ask for far more (a mesh instanced by
+/// a chain of nodes that each instance the next twice), and would
+/// otherwise end in a failed allocation.
+pub const MAX_TRIANGLES: usize = 1 << 26;
+/// The largest coordinate the renderer is made for: the watertight
+/// ray/triangle test multiplies three coordinates relative to the ray
+/// origin, which overflows f32 (3.4e38) near 7e12.
+const MAX_COORDINATE: f32 = 1e12;
 
 /// Loads a `.dae` file.
 pub fn load_file(path: &Path) -> Result<Scene, LoadError> {
     if path.is_dir() {
         return Err(LoadError::file(path, "is a directory, not a scene file"));
+    }
+    // A named pipe or device would block the read or never end it.
+    if let Ok(meta) = std::fs::metadata(path)
+        && !meta.is_file()
+    {
+        return Err(LoadError::file(path, "is not a regular file"));
     }
     let bytes =
         std::fs::read(path).map_err(|e| LoadError::file(path, format!("cannot read: {e}")))?;
@@ -69,10 +86,27 @@ pub fn load_str(text: &str, path: &Path) -> Result<Scene, LoadError> {
             "not a COLLADA document (the root element must be <COLLADA>)",
         ));
     }
+    let ids = Ids::index(&doc);
+    let warnings = ids
+        .repeated
+        .iter()
+        .map(|&(node, earlier)| {
+            src.warning(
+                node,
+                format!(
+                    "id {:?} is already the id of the <{}> on line {}; references to it reach this <{}>",
+                    node.attribute("id").unwrap_or(""),
+                    earlier.tag_name().name(),
+                    doc.text_pos_at(earlier.range().start).row,
+                    node.tag_name().name()
+                ),
+            )
+        })
+        .collect();
     let mut loader = Loader {
         src: &src,
-        ids: Ids::index(&doc),
-        warnings: Vec::new(),
+        ids,
+        warnings,
         geometry: Geometry::default(),
         materials: Vec::new(),
         material_index: HashMap::new(),
@@ -81,6 +115,7 @@ pub fn load_str(text: &str, path: &Path) -> Result<Scene, LoadError> {
         camera: None,
         node_path: Vec::new(),
         node_visits: 0,
+        triangle_counts: HashMap::new(),
     };
     loader.load(root)?;
     Ok(loader.finish())
@@ -152,6 +187,8 @@ struct Loader<'s, 'a, 'i> {
     /// Nodes on the path from the scene root to the node being visited.
     node_path: Vec<roxmltree::NodeId>,
     node_visits: usize,
+    /// [`Loader::expanded_triangles`] of the nodes counted so far.
+    triangle_counts: HashMap<roxmltree::NodeId, u64>,
 }
 
 impl<'a, 'i> Loader<'_, 'a, 'i> {
@@ -159,7 +196,8 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
         let src = self.src;
         let up = match path(root, &["asset", "up_axis"]) {
             Some(node) => {
-                let axis = node.text().unwrap_or("").trim();
+                let axis = xml::text(node);
+                let axis = axis.trim();
                 transform::up_axis_matrix(axis).ok_or_else(|| {
                     src.error(
                         node,
@@ -182,6 +220,20 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
                 .and_then(|l| child(l, "visual_scene"))
                 .ok_or_else(|| src.error(root, "no <visual_scene> to render"))?,
         };
+        // Counted before anything is built: a small file can instance its
+        // way to billions of triangles.
+        let mut triangles = 0u64;
+        for node in children(scene, "node") {
+            triangles = triangles.saturating_add(self.expanded_triangles(node, 0)?);
+        }
+        if triangles > MAX_TRIANGLES as u64 {
+            return Err(src.error(
+                scene,
+                format!(
+                    "the scene's instances add up to {triangles} triangles, more than the {MAX_TRIANGLES} (2^26) wavepath takes"
+                ),
+            ));
+        }
         for node in children(scene, "node") {
             self.visit(node, &up, 0)?;
         }
@@ -293,12 +345,24 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
                 format!("aspect ratio {a} must be positive"),
             ));
         }
-        if let (Some(n), Some(f)) = (optics.znear, optics.zfar)
-            && !(n >= 0.0 && f > n)
-        {
+        // Checked with the defaults standing in for what is not given: a
+        // lone <znear> beyond the default zfar would clip everything.
+        let (n, f) = optics.clip_range();
+        if !(n >= 0.0 && f > n) {
+            let given = |value: Option<f32>| {
+                if value.is_some() {
+                    ""
+                } else {
+                    " (the default)"
+                }
+            };
             return Err(src.error(
                 p,
-                format!("znear {n} and zfar {f} must satisfy 0 ≤ znear < zfar"),
+                format!(
+                    "znear {n}{} and zfar {f}{} must satisfy 0 ≤ znear < zfar",
+                    given(optics.znear),
+                    given(optics.zfar)
+                ),
             ));
         }
         Ok(optics)
@@ -349,16 +413,62 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
         }
     }
 
+    /// The id under which `geometry`'s mesh is in `self.meshes`, parsed
+    /// the first time it is asked for; `None` if it has no `<mesh>`.
+    fn parse_mesh(&mut self, geometry: Node<'a, 'i>) -> Result<Option<String>, LoadError> {
+        let Some(mesh_node) = child(geometry, "mesh") else {
+            return Ok(None);
+        };
+        let id = geometry.attribute("id").unwrap_or("").to_string();
+        if !self.meshes.contains_key(&id) {
+            let (mesh, warnings) = mesh::parse_mesh(self.src, &self.ids, mesh_node)?;
+            self.warnings.extend(warnings);
+            self.meshes.insert(id.clone(), mesh);
+        }
+        Ok(Some(id))
+    }
+
+    /// How many triangles `node` expands to with everything it instances,
+    /// counted once per node (so a chain of nodes that each instance the
+    /// next twice costs one visit per node, however many instances it
+    /// makes). A cycle or too deep a nesting counts as nothing here; the
+    /// walk reports it.
+    fn expanded_triangles(&mut self, node: Node<'a, 'i>, depth: usize) -> Result<u64, LoadError> {
+        if depth > MAX_NODE_DEPTH {
+            return Ok(0);
+        }
+        if let Some(&n) = self.triangle_counts.get(&node.id()) {
+            return Ok(n);
+        }
+        self.triangle_counts.insert(node.id(), 0);
+        let src = self.src;
+        let mut total = 0u64;
+        for item in node.children().filter(|c| c.is_element()) {
+            let n = match item.tag_name().name() {
+                "node" => self.expanded_triangles(item, depth + 1)?,
+                "instance_node" => {
+                    let target = self.ids.resolve(src, item, "url", "node")?;
+                    self.expanded_triangles(target, depth + 1)?
+                }
+                "instance_geometry" => {
+                    let geometry = self.ids.resolve(src, item, "url", "geometry")?;
+                    match self.parse_mesh(geometry)? {
+                        Some(id) => self.meshes[&id].triangles.len() as u64,
+                        None => 0,
+                    }
+                }
+                _ => 0,
+            };
+            total = total.saturating_add(n);
+        }
+        self.triangle_counts.insert(node.id(), total);
+        Ok(total)
+    }
+
     fn instance_geometry(&mut self, instance: Node<'a, 'i>, world: &Mat4) -> Result<(), LoadError> {
         let src = self.src;
         let geometry = self.ids.resolve(src, instance, "url", "geometry")?;
-        if let Some(mesh_node) = child(geometry, "mesh") {
-            let id = geometry.attribute("id").unwrap_or("").to_string();
-            if !self.meshes.contains_key(&id) {
-                let (mesh, warnings) = mesh::parse_mesh(src, &self.ids, mesh_node)?;
-                self.warnings.extend(warnings);
-                self.meshes.insert(id.clone(), mesh);
-            }
+        if let Some(id) = self.parse_mesh(geometry)? {
             let positions = &self.meshes[&id].positions;
             if let Some(p) = positions
                 .iter()
@@ -435,7 +545,7 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
                 .push(materials[mesh.symbol_of_triangle[t] as usize]);
         }
         for n in &mut tris.normals[first_normal..] {
-            *n = n.normalize_or_zero();
+            *n = normalize_any_scale(*n).unwrap_or(Vec3::ZERO);
         }
         // Texture coordinates are kept only while every mesh so far has them.
         if had_texcoords && !mesh.texcoords.is_empty() {
@@ -448,6 +558,19 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
     fn finish(mut self) -> Scene {
         // The camera frames mesh vertices and spheres only (not lights).
         let bounds = self.geometry.bounds();
+        let path = self.src.path.display();
+        if self.geometry.triangles.is_empty() && self.geometry.spheres.is_empty() {
+            self.warnings.push(format!(
+                "{path}: no geometry (no <instance_geometry> of a mesh or sphere); only lights can show"
+            ));
+        } else {
+            let reach = bounds.min.abs().max(bounds.max.abs()).max_element();
+            if reach > MAX_COORDINATE {
+                self.warnings.push(format!(
+                    "{path}: coordinates reach {reach:e}; past {MAX_COORDINATE:e} the single-precision ray/triangle test overflows, and triangles may be missed"
+                ));
+            }
+        }
         let (view_dir, optics) = match &self.camera {
             // T·(0,0,−1,1): the translation is included on purpose (see camera.rs).
             Some(c) => (

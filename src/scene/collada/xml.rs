@@ -1,6 +1,7 @@
 //! Small helpers over roxmltree: namespace-free element lookup, checked
 //! number lists and `#url` resolution, each failing with a located error.
 
+use std::borrow::Cow;
 use std::collections::HashMap;
 
 use glam::Vec3;
@@ -26,6 +27,20 @@ pub fn children<'a, 'i: 'a>(
 /// First child element, whatever its name.
 pub fn first_element<'a, 'i>(node: Node<'a, 'i>) -> Option<Node<'a, 'i>> {
     node.children().find(|c| c.is_element())
+}
+
+/// The character data of `node`: its text pieces joined. roxmltree's
+/// `text()` is the first piece only, so a comment inside a number list
+/// (`<p>0 1 2 <!-- quad --> 3</p>`) would cut the list off silently.
+pub fn text<'a>(node: Node<'a, '_>) -> Cow<'a, str> {
+    let mut pieces = node
+        .children()
+        .filter_map(|c| c.is_text().then(|| c.text()).flatten());
+    let first = pieces.next().unwrap_or("");
+    match pieces.next() {
+        None => Cow::Borrowed(first),
+        Some(second) => Cow::Owned([first, second].into_iter().chain(pieces).collect()),
+    }
 }
 
 /// Follows a path of child names.
@@ -95,9 +110,23 @@ pub fn innermost_open_element(text: &str) -> Option<(&str, usize)> {
 }
 
 impl Source<'_, '_> {
+    /// The text of an element that holds numbers only (no child elements).
+    fn number_text<'a>(&self, node: Node<'a, '_>) -> Result<Cow<'a, str>, LoadError> {
+        match first_element(node) {
+            Some(inner) => Err(self.error(
+                node,
+                format!(
+                    "holds an element <{}> where only numbers belong",
+                    inner.tag_name().name()
+                ),
+            )),
+            None => Ok(text(node)),
+        }
+    }
+
     /// The whitespace-separated numbers of `node`'s text, all finite.
     pub fn floats(&self, node: Node) -> Result<Vec<f32>, LoadError> {
-        let text = node.text().unwrap_or("");
+        let text = self.number_text(node)?;
         let mut out = Vec::with_capacity(text.len() / 4);
         for (i, token) in text.split_ascii_whitespace().enumerate() {
             let value: f32 = token.parse().map_err(|_| {
@@ -119,7 +148,7 @@ impl Source<'_, '_> {
 
     /// The whitespace-separated unsigned integers of `node`'s text.
     pub fn uints(&self, node: Node) -> Result<Vec<u32>, LoadError> {
-        let text = node.text().unwrap_or("");
+        let text = self.number_text(node)?;
         let mut out = Vec::with_capacity(text.len() / 3);
         for (i, token) in text.split_ascii_whitespace().enumerate() {
             let value: u32 = token.parse().map_err(|_| {
@@ -188,16 +217,23 @@ impl Source<'_, '_> {
 /// Every element with an `id`, for resolving `#url` references.
 pub struct Ids<'a, 'i> {
     map: HashMap<&'a str, Node<'a, 'i>>,
+    /// Elements whose id an earlier element already has (the later one
+    /// is the one references reach), with that earlier element.
+    pub repeated: Vec<(Node<'a, 'i>, Node<'a, 'i>)>,
 }
 
 impl<'a, 'i> Ids<'a, 'i> {
     pub fn index(doc: &'a roxmltree::Document<'i>) -> Self {
-        let map = doc
-            .descendants()
-            .filter(|n| n.is_element())
-            .filter_map(|n| n.attribute("id").map(|id| (id, n)))
-            .collect();
-        Ids { map }
+        let mut map = HashMap::new();
+        let mut repeated = Vec::new();
+        for n in doc.descendants().filter(|n| n.is_element()) {
+            if let Some(id) = n.attribute("id")
+                && let Some(earlier) = map.insert(id, n)
+            {
+                repeated.push((n, earlier));
+            }
+        }
+        Ids { map, repeated }
     }
 
     pub fn get(&self, id: &str) -> Option<Node<'a, 'i>> {
