@@ -248,9 +248,11 @@ const MAX_SCALED_EXPONENT: i32 = 0x7e80_0000;
 /// would come out zero) and underflows below ~1e-10. So `v` is first
 /// multiplied by the power of two 2^(127 − E) that brings its largest
 /// component m = 1.f·2^E into [1, 2) (at the top of the range into
-/// [1, 4)). The scaling is exact, and `|s·v| = s·|v|` rounds as `|v|`
-/// does, so wherever the plain normalisation works this gives the same
-/// bits.
+/// [2, 4); a subnormal m, whose exponent field is 0, into [2^−22, 2)).
+/// Wherever the plain normalisation works, this gives the same bits:
+/// scaling by a power of two is exact for the largest components and
+/// `|s·v| = s·|v|` rounds as `|v|` does (a component scaled down into the
+/// subnormals may lose a last bit, far below anything a normal shows).
 #[inline]
 pub fn normalize_any_scale(v: Vec3) -> Option<Vec3> {
     let m = v.abs().max_element().to_bits() as i32;

@@ -291,7 +291,10 @@ fn converge_refuses_bad_references_naming_the_file() {
     // before anything is rendered.
     let o = wavepath_in(
         &dir,
-        &["converge", "--ref", "big.exr", "--plot", "plot.png", SCENE],
+        &[
+            "converge", "-r", "16", "12", "-s", "4", "--ref", "big.exr", "--plot", "plot.png",
+            SCENE,
+        ],
     );
     assert_refused(&o, "plot.png");
     assert!(!dir.join("plot.png").exists());
@@ -393,4 +396,39 @@ fn mitsuba_writes_the_scene_and_refuses_bad_input_naming_the_file() {
             "{flag} {value}: {err}"
         );
     }
+}
+
+#[test]
+fn converge_plots_extreme_values_without_hanging() {
+    // A relMSE of 1e307 once sent the log axis code into an endless loop
+    // (its padded range overflowed to infinity). Such points are left
+    // out of the plot; the command ends, within a minute here.
+    let dir = scratch("converge_extreme");
+    let csv = dir.join("runs.csv");
+    std::fs::write(
+        &csv,
+        "estimator,spp,seconds,rel_mse\nlight,1,0.01,1e-2\nlight,2,0.02,1e307\nlight,4,0.04,3e-3\n",
+    )
+    .unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_wavepath"))
+        .current_dir(&dir)
+        .args(["converge", "--plot-csv", "runs.csv", "--plot", "runs.svg"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if start.elapsed() > std::time::Duration::from_secs(60) {
+            child.kill().unwrap();
+            panic!("converge --plot-csv still running after a minute");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    assert!(status.success());
+    let svg = std::fs::read_to_string(dir.join("runs.svg")).unwrap();
+    assert!(svg.contains("<svg"));
 }

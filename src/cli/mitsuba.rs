@@ -40,6 +40,7 @@ use glam::Vec3;
 use crate::film::{Image, output};
 use crate::integrator::ROULETTE_DEPTH;
 use crate::integrator::bsdf::{self, Surface};
+use crate::lanes::normalize_any_scale;
 use crate::scene::{Light, Scene, collada};
 
 #[derive(Parser, Debug)]
@@ -84,7 +85,10 @@ pub struct MitsubaArgs {
 pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
     let args = MitsubaArgs::parse_from(argv);
     if let Err(e) = super::check_pixel_count(&args.resolution) {
-        anyhow::bail!(e);
+        use clap::CommandFactory;
+        MitsubaArgs::command()
+            .error(clap::error::ErrorKind::ValueValidation, e)
+            .exit();
     }
     let scene = collada::load_file(&args.scene)?;
     for w in &scene.warnings {
@@ -324,7 +328,7 @@ fn write_ply(path: &Path, scene: &Scene, faces: &[usize], flip: bool, apart: f32
     let sign = if flip { -1.0 } else { 1.0 };
     for &t in faces {
         let [a, b, c] = tris.vertices(t);
-        let face_normal = (b - a).cross(c - a).normalize_or_zero();
+        let face_normal = normalize_any_scale((b - a).cross(c - a)).unwrap_or(Vec3::ZERO);
         for index in tris.indices[t] {
             let i = index as usize;
             let n = tris

@@ -23,8 +23,8 @@ mod report;
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
@@ -168,21 +168,30 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
     (settings, output)
 }
 
-/// Writes a line of a report to stdout. When the reader has gone (a
-/// broken pipe) the rest of the report is dropped quietly and the command
-/// goes on, so whatever files it writes are still written; any other
-/// failure is said once on stderr.
+/// Whether stdout failed, and how: `None` for a reader that went away.
+static STDOUT_FAILED: OnceLock<Option<String>> = OnceLock::new();
+
+/// Writes a line of a report to stdout. Once a write fails, the rest of
+/// the report is dropped and the command goes on, so whatever files it
+/// writes are still written. A reader that has gone (a broken pipe) is
+/// not an error; any other failure (a full disk) is, at the end
+/// ([`report_status`]).
 pub(crate) fn say_line(line: std::fmt::Arguments) {
     use std::io::Write;
-    static FAILED: AtomicBool = AtomicBool::new(false);
-    if FAILED.load(Ordering::Relaxed) {
+    if STDOUT_FAILED.get().is_some() {
         return;
     }
     if let Err(e) = writeln!(std::io::stdout().lock(), "{line}") {
-        FAILED.store(true, Ordering::Relaxed);
-        if e.kind() != std::io::ErrorKind::BrokenPipe {
-            eprintln!("warning: cannot write to stdout: {e}");
-        }
+        let _ =
+            STDOUT_FAILED.set((e.kind() != std::io::ErrorKind::BrokenPipe).then(|| e.to_string()));
+    }
+}
+
+/// A tool's exit status, made an error if its report could not be written.
+fn report_status(status: Result<i32>) -> Result<i32> {
+    match STDOUT_FAILED.get() {
+        Some(Some(e)) => status.and_then(|_| Err(anyhow::anyhow!("cannot write to stdout: {e}"))),
+        _ => status,
     }
 }
 
@@ -229,8 +238,8 @@ fn cancel_on_ctrl_c() -> Arc<AtomicBool> {
 pub fn run() -> Result<i32> {
     let mut argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
     match argv.get(1).and_then(|a| a.to_str()) {
-        Some("compare") => return compare::run(argv.split_off(1)),
-        Some("converge") => return converge::run(argv.split_off(1)),
+        Some("compare") => return report_status(compare::run(argv.split_off(1))),
+        Some("converge") => return report_status(converge::run(argv.split_off(1))),
         Some("mitsuba") => return mitsuba::run(argv.split_off(1)),
         _ => {}
     }

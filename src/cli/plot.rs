@@ -38,18 +38,18 @@ pub fn error_vs_time(
     // What a log axis can show: positive, and far enough from the ends of
     // f64 that the padded range below stays finite (the axis code loops
     // forever on an infinite end).
-    let finite = |v: f64| (1e-300..=1e300).contains(&v);
+    let plottable = |v: f64| (1e-300..=1e300).contains(&v);
     let pts = || {
         curves
             .iter()
             .flat_map(|c| c.points.iter().copied())
-            .filter(|&(x, y)| finite(x) && finite(y))
+            .filter(|&(x, y)| plottable(x) && plottable(y))
     };
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for (x, y) in pts() {
         (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
     }
-    if let Some((f, _)) = floor.filter(|(f, _)| finite(*f)) {
+    if let Some((f, _)) = floor.filter(|(f, _)| plottable(*f)) {
         (y0, y1) = (y0.min(f), y1.max(f));
     }
     if x0 > x1 || y0 > y1 {
@@ -81,7 +81,7 @@ pub fn error_vs_time(
             .points
             .iter()
             .copied()
-            .filter(|&(x, y)| finite(x) && finite(y))
+            .filter(|&(x, y)| plottable(x) && plottable(y))
             .collect();
         chart
             .draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))
@@ -94,7 +94,7 @@ pub fn error_vs_time(
             .draw_series(points.iter().map(|&p| Circle::new(p, 3, colour.filled())))
             .map_err(|e| err(&e))?;
     }
-    if let Some((f, name)) = floor.filter(|(f, _)| finite(*f)) {
+    if let Some((f, name)) = floor.filter(|(f, _)| plottable(*f)) {
         let grey = RGBColor(120, 120, 120);
         chart
             .draw_series(DashedLineSeries::new(

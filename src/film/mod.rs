@@ -143,7 +143,7 @@ impl Image {
                 self.pixels[global] = mean;
                 self.variance[global] = if n > 1 {
                     let nf = n as f64;
-                    let m = mean.as_dvec3();
+                    let m = film.sum[local] / nf;
                     (((film.sum_sq[local] - nf * m * m) / (nf - 1.0)).max(DVec3::ZERO) / nf)
                         .as_vec3()
                 } else {

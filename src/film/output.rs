@@ -245,7 +245,7 @@ fn read_exr(path: &Path) -> Result<Image> {
     // The header first: a few hundred bytes can claim 1e10 pixels, which
     // the decoder would try to allocate before finding the data missing.
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(cannot_read)?;
-    if let Some(header) = meta.headers.first() {
+    for header in &meta.headers {
         let size = header.layer_size;
         if size.0 as u64 * size.1 as u64 > super::MAX_PIXELS {
             bail!(

@@ -112,8 +112,9 @@ impl Triangles {
             + u * self.normals[b as usize]
             + v * self.normals[c as usize];
         // The fallback is computed only when needed (degenerate normals).
-        n.try_normalize()
-            .unwrap_or_else(|| normalize_any_scale(self.geometric_normal(tri)).unwrap_or(Vec3::Y))
+        normalize_any_scale(n)
+            .or_else(|| normalize_any_scale(self.geometric_normal(tri)))
+            .unwrap_or(Vec3::Y)
     }
 }
 

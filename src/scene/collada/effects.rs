@@ -158,8 +158,8 @@ fn parse_effect(
                 warnings.push(src.warning(
                     color,
                     format!(
-                        "diffuse colour has a component of {:e}: above 1, it reflects more light than it receives, and with several bounces the image can grow without bound",
-                        albedo.max_element()
+                        "diffuse colour has a component of {}: above 1, it reflects more light than it receives, and with several bounces the image can grow without bound",
+                        short(albedo.max_element())
                     ),
                 ));
             }
@@ -175,5 +175,15 @@ fn parse_effect(
             ));
             Ok(Material::DEFAULT)
         }
+    }
+}
+
+/// A number as `{}` prints it, or in exponent form where that would run
+/// to dozens of digits.
+fn short(x: f32) -> String {
+    if x.abs() < 1e6 {
+        x.to_string()
+    } else {
+        format!("{x:e}")
     }
 }

@@ -6,6 +6,7 @@ use roxmltree::Node;
 use super::effects::renderer_technique;
 use super::error::{LoadError, Source};
 use super::xml::{child, first_element};
+use crate::lanes::normalize_any_scale;
 use crate::scene::Light;
 
 /// `T · (x, y, z, w)` as a 3-vector (the w of the result is dropped).
@@ -54,14 +55,14 @@ pub fn parse_light(
             // The reference transforms the direction with w = 1, so the node's
             // translation leaks into it; reproduced for identical lighting.
             let d = apply(t, Vec4::new(0.0, 0.0, -1.0, 1.0));
-            if d.length_squared() == 0.0 {
+            let Some(to_light) = normalize_any_scale(d) else {
                 return Err(src.error(
                     instance,
                     "directional light has a zero direction under its node's transform",
                 ));
-            }
+            };
             Light::Directional {
-                to_light: d.normalize(),
+                to_light,
                 radiance: spectrum,
             }
         }
@@ -69,15 +70,20 @@ pub fn parse_light(
             let normal = apply(t, Vec4::new(0.0, 0.0, -1.0, 1.0)) - p;
             let dim_x = apply(t, Vec4::new(-1.0, 0.0, 0.0, 1.0)) - p;
             let dim_y = apply(t, Vec4::new(0.0, 1.0, 0.0, 1.0)) - p;
-            if normal.length_squared() == 0.0 || dim_x.cross(dim_y).length_squared() == 0.0 {
+            // At any scale: the squared length of a 1e-12 light's
+            // dim_x × dim_y underflows f32, of a 1e20 one's normal overflows.
+            let (Some(normal), Some(_)) = (
+                normalize_any_scale(normal),
+                normalize_any_scale(dim_x.cross(dim_y)),
+            ) else {
                 return Err(src.error(
                     instance,
                     "area light is degenerate under its node's transform (zero area or normal)",
                 ));
-            }
+            };
             Light::Area {
                 center: p,
-                normal: normal.normalize(),
+                normal,
                 dim_x,
                 dim_y,
                 radiance: spectrum,

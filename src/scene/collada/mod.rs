@@ -35,9 +35,9 @@ const MAX_NODE_DEPTH: usize = 256;
 /// How many node instances the scene graph may expand to: `<instance_node>`
 /// chains can multiply without a cycle (each node instancing the next twice).
 const MAX_NODE_VISITS: usize = 1 << 20;
-/// How many triangles the instanced meshes may add up to: a few hundred
-/// bytes each once loaded, built into a BVH and shaded, so 2^26 already
-/// takes ~20 GB. A small file can ask for far more (a mesh instanced by
+/// How many triangles (and spheres) the instances may add up to: a few
+/// hundred bytes each once loaded, built into a BVH and shaded, so 2^26
+/// already takes ~20 GB. A small file can ask for far more (a mesh instanced by
 /// a chain of nodes that each instance the next twice), and would
 /// otherwise end in a failed allocation.
 pub const MAX_TRIANGLES: usize = 1 << 26;
@@ -51,11 +51,16 @@ pub fn load_file(path: &Path) -> Result<Scene, LoadError> {
     if path.is_dir() {
         return Err(LoadError::file(path, "is a directory, not a scene file"));
     }
-    // A named pipe or device would block the read or never end it.
+    // A device (/dev/zero) would be read until memory runs out. Pipes are
+    // fine (`wavepath <(zcat scene.dae.gz)`).
     if let Ok(meta) = std::fs::metadata(path)
         && !meta.is_file()
+        && !is_pipe(&meta.file_type())
     {
-        return Err(LoadError::file(path, "is not a regular file"));
+        return Err(LoadError::file(
+            path,
+            "is a device or socket, not a scene file",
+        ));
     }
     let bytes =
         std::fs::read(path).map_err(|e| LoadError::file(path, format!("cannot read: {e}")))?;
@@ -72,6 +77,16 @@ pub fn load_file(path: &Path) -> Result<Scene, LoadError> {
     load_str(&text, path)
 }
 
+#[cfg(unix)]
+fn is_pipe(kind: &std::fs::FileType) -> bool {
+    std::os::unix::fs::FileTypeExt::is_fifo(kind)
+}
+
+#[cfg(not(unix))]
+fn is_pipe(_: &std::fs::FileType) -> bool {
+    false
+}
+
 /// Loads a scene from the text of a `.dae` file; `path` is used in messages.
 pub fn load_str(text: &str, path: &Path) -> Result<Scene, LoadError> {
     if text.trim().is_empty() {
@@ -86,27 +101,10 @@ pub fn load_str(text: &str, path: &Path) -> Result<Scene, LoadError> {
             "not a COLLADA document (the root element must be <COLLADA>)",
         ));
     }
-    let ids = Ids::index(&doc);
-    let warnings = ids
-        .repeated
-        .iter()
-        .map(|&(node, earlier)| {
-            src.warning(
-                node,
-                format!(
-                    "id {:?} is already the id of the <{}> on line {}; references to it reach this <{}>",
-                    node.attribute("id").unwrap_or(""),
-                    earlier.tag_name().name(),
-                    doc.text_pos_at(earlier.range().start).row,
-                    node.tag_name().name()
-                ),
-            )
-        })
-        .collect();
     let mut loader = Loader {
         src: &src,
-        ids,
-        warnings,
+        ids: Ids::index(&doc),
+        warnings: Vec::new(),
         geometry: Geometry::default(),
         materials: Vec::new(),
         material_index: HashMap::new(),
@@ -115,7 +113,7 @@ pub fn load_str(text: &str, path: &Path) -> Result<Scene, LoadError> {
         camera: None,
         node_path: Vec::new(),
         node_visits: 0,
-        triangle_counts: HashMap::new(),
+        primitive_counts: HashMap::new(),
     };
     loader.load(root)?;
     Ok(loader.finish())
@@ -187,8 +185,8 @@ struct Loader<'s, 'a, 'i> {
     /// Nodes on the path from the scene root to the node being visited.
     node_path: Vec<roxmltree::NodeId>,
     node_visits: usize,
-    /// [`Loader::expanded_triangles`] of the nodes counted so far.
-    triangle_counts: HashMap<roxmltree::NodeId, u64>,
+    /// [`Loader::expanded_primitives`] of the nodes counted so far.
+    primitive_counts: HashMap<roxmltree::NodeId, u64>,
 }
 
 impl<'a, 'i> Loader<'_, 'a, 'i> {
@@ -221,16 +219,20 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
                 .ok_or_else(|| src.error(root, "no <visual_scene> to render"))?,
         };
         // Counted before anything is built: a small file can instance its
-        // way to billions of triangles.
-        let mut triangles = 0u64;
+        // way to billions of primitives.
+        let mut primitives = 0u64;
         for node in children(scene, "node") {
-            triangles = triangles.saturating_add(self.expanded_triangles(node, 0)?);
+            primitives = primitives.saturating_add(self.expanded_primitives(node, 0)?);
         }
-        if triangles > MAX_TRIANGLES as u64 {
+        if primitives > MAX_TRIANGLES as u64 {
+            let count = match primitives {
+                u64::MAX => "more than 2^64".to_string(),
+                n => n.to_string(),
+            };
             return Err(src.error(
                 scene,
                 format!(
-                    "the scene's instances add up to {triangles} triangles, more than the {MAX_TRIANGLES} (2^26) wavepath takes"
+                    "the scene's instances add up to {count} primitives, more than the {MAX_TRIANGLES} (2^26) wavepath takes"
                 ),
             ));
         }
@@ -428,40 +430,42 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
         Ok(Some(id))
     }
 
-    /// How many triangles `node` expands to with everything it instances,
-    /// counted once per node (so a chain of nodes that each instance the
-    /// next twice costs one visit per node, however many instances it
-    /// makes). A cycle or too deep a nesting counts as nothing here; the
-    /// walk reports it.
-    fn expanded_triangles(&mut self, node: Node<'a, 'i>, depth: usize) -> Result<u64, LoadError> {
+    /// How many primitives `node` expands to with everything it instances
+    /// (a mesh's triangles, one per sphere, two per light, which an area
+    /// light becomes), counted once per node, so a chain of nodes that
+    /// each instance the next twice costs one visit per node, however
+    /// many instances it makes. A cycle or too deep a nesting counts as
+    /// nothing here; the walk reports it.
+    fn expanded_primitives(&mut self, node: Node<'a, 'i>, depth: usize) -> Result<u64, LoadError> {
         if depth > MAX_NODE_DEPTH {
             return Ok(0);
         }
-        if let Some(&n) = self.triangle_counts.get(&node.id()) {
+        if let Some(&n) = self.primitive_counts.get(&node.id()) {
             return Ok(n);
         }
-        self.triangle_counts.insert(node.id(), 0);
+        self.primitive_counts.insert(node.id(), 0);
         let src = self.src;
         let mut total = 0u64;
         for item in node.children().filter(|c| c.is_element()) {
             let n = match item.tag_name().name() {
-                "node" => self.expanded_triangles(item, depth + 1)?,
+                "node" => self.expanded_primitives(item, depth + 1)?,
                 "instance_node" => {
                     let target = self.ids.resolve(src, item, "url", "node")?;
-                    self.expanded_triangles(target, depth + 1)?
+                    self.expanded_primitives(target, depth + 1)?
                 }
                 "instance_geometry" => {
                     let geometry = self.ids.resolve(src, item, "url", "geometry")?;
                     match self.parse_mesh(geometry)? {
                         Some(id) => self.meshes[&id].triangles.len() as u64,
-                        None => 0,
+                        None => 1,
                     }
                 }
+                "instance_light" => 2,
                 _ => 0,
             };
             total = total.saturating_add(n);
         }
-        self.triangle_counts.insert(node.id(), total);
+        self.primitive_counts.insert(node.id(), total);
         Ok(total)
     }
 
@@ -556,6 +560,8 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
     }
 
     fn finish(mut self) -> Scene {
+        let repeated = self.ids.repeated_warnings(self.src);
+        self.warnings.extend(repeated);
         // The camera frames mesh vertices and spheres only (not lights).
         let bounds = self.geometry.bounds();
         let path = self.src.path.display();

@@ -2,6 +2,7 @@
 //! number lists and `#url` resolution, each failing with a located error.
 
 use std::borrow::Cow;
+use std::cell::RefCell;
 use std::collections::HashMap;
 
 use glam::Vec3;
@@ -216,28 +217,57 @@ impl Source<'_, '_> {
 
 /// Every element with an `id`, for resolving `#url` references.
 pub struct Ids<'a, 'i> {
+    /// The last element with each id: the one a reference reaches.
     map: HashMap<&'a str, Node<'a, 'i>>,
-    /// Elements whose id an earlier element already has (the later one
-    /// is the one references reach), with that earlier element.
-    pub repeated: Vec<(Node<'a, 'i>, Node<'a, 'i>)>,
+    /// The ids more than one element has, with the number of elements.
+    repeated: HashMap<&'a str, usize>,
+    /// Repeated ids that a reference has reached, in the order reached.
+    reached: RefCell<Vec<&'a str>>,
 }
 
 impl<'a, 'i> Ids<'a, 'i> {
     pub fn index(doc: &'a roxmltree::Document<'i>) -> Self {
         let mut map = HashMap::new();
-        let mut repeated = Vec::new();
+        let mut repeated = HashMap::new();
         for n in doc.descendants().filter(|n| n.is_element()) {
             if let Some(id) = n.attribute("id")
-                && let Some(earlier) = map.insert(id, n)
+                && map.insert(id, n).is_some()
             {
-                repeated.push((n, earlier));
+                *repeated.entry(id).or_insert(1) += 1;
             }
         }
-        Ids { map, repeated }
+        Ids {
+            map,
+            repeated,
+            reached: RefCell::new(Vec::new()),
+        }
     }
 
     pub fn get(&self, id: &str) -> Option<Node<'a, 'i>> {
-        self.map.get(id).copied()
+        let (&key, &node) = self.map.get_key_value(id)?;
+        if self.repeated.contains_key(key) && !self.reached.borrow().contains(&key) {
+            self.reached.borrow_mut().push(key);
+        }
+        Some(node)
+    }
+
+    /// A warning for each id that several elements have and a reference
+    /// used (ids nothing refers to may repeat harmlessly, as the CS184
+    /// scenes' node names do).
+    pub fn repeated_warnings(&self, src: &Source) -> Vec<String> {
+        self.reached
+            .borrow()
+            .iter()
+            .map(|id| {
+                src.warning(
+                    self.map[id],
+                    format!(
+                        "{} elements have the id {id:?}; references to it reach this last one",
+                        self.repeated[id]
+                    ),
+                )
+            })
+            .collect()
     }
 
     /// Resolves the `#id` in attribute `attr` of `node`, expecting an element named `kind`.
