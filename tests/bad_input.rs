@@ -744,29 +744,35 @@ fn instance_node_cycle() {
     );
 }
 
-#[test]
-fn instance_node_exponential_expansion() {
-    // No cycle, but each of 40 nodes instances the next twice: 2^40 instances.
+/// [`BASE`] with a chain of `levels` nodes, each instancing the next
+/// twice, down to a node holding `leaf`: 2^levels instances of `leaf`,
+/// hung under the lamp's node.
+fn with_doubling_chain(levels: usize, leaf: &str) -> String {
     let mut chain = String::new();
-    for i in 0..40 {
+    for i in 0..levels {
         chain.push_str(&format!(
             r##"<node id="n{i}"><instance_node url="#n{}"/><instance_node url="#n{}"/></node>"##,
             i + 1,
             i + 1
         ));
     }
-    chain.push_str(r#"<node id="n40"/>"#);
-    let text = edit(
-        r#"<library_visual_scenes>"#,
-        &format!(r#"<library_nodes>{chain}</library_nodes><library_visual_scenes>"#),
-    );
-    let text = edit_text(
-        &text,
-        &[(
+    chain.push_str(&format!(r#"<node id="n{levels}">{leaf}</node>"#));
+    edits(&[
+        (
+            "<library_visual_scenes>",
+            &format!("<library_nodes>{chain}</library_nodes><library_visual_scenes>"),
+        ),
+        (
             r#"<node id="lamp-node">"#,
             r##"<node id="lamp-node"><instance_node url="#n0"/>"##,
-        )],
-    );
+        ),
+    ])
+}
+
+#[test]
+fn instance_node_exponential_expansion() {
+    // No cycle, but each of 40 nodes instances the next twice: 2^40 instances.
+    let text = with_doubling_chain(40, "");
     let e = load_err(&text);
     assert_eq!(e.element.as_deref(), Some("node"), "{e}");
     assert!(e.message.contains("node instances"), "{e}");
@@ -884,25 +890,7 @@ fn instancing_to_more_primitives_than_the_renderer_takes_is_refused_up_front() {
         r##"<instance_geometry url="#ball"/>"##,
         r##"<instance_light url="#lamp"/>"##,
     ] {
-        let mut chain = String::new();
-        for i in 0..19 {
-            chain.push_str(&format!(
-                r##"<node id="n{i}"><instance_node url="#n{}"/><instance_node url="#n{}"/></node>"##,
-                i + 1,
-                i + 1
-            ));
-        }
-        chain.push_str(&format!(r#"<node id="n19">{}</node>"#, leaf.repeat(129)));
-        let text = edits(&[
-            (
-                "<library_visual_scenes>",
-                &format!("<library_nodes>{chain}</library_nodes><library_visual_scenes>"),
-            ),
-            (
-                r#"<node id="lamp-node">"#,
-                r##"<node id="lamp-node"><instance_node url="#n0"/>"##,
-            ),
-        ]);
+        let text = with_doubling_chain(19, &leaf.repeat(129));
         let e = expect_at(
             &text,
             "visual_scene",
