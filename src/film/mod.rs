@@ -135,16 +135,15 @@ impl Image {
                 let local = (ty * t.width + tx) as usize;
                 let global = ((t.y0 + ty) * self.width + t.x0 + tx) as usize;
                 let n = film.count[local];
+                let nf = n as f64;
                 let mean = if n > 0 {
-                    (film.sum[local] / n as f64).as_vec3()
+                    film.sum[local] / nf
                 } else {
-                    Vec3::ZERO
+                    DVec3::ZERO
                 };
-                self.pixels[global] = mean;
+                self.pixels[global] = mean.as_vec3();
                 self.variance[global] = if n > 1 {
-                    let nf = n as f64;
-                    let m = film.sum[local] / nf;
-                    (((film.sum_sq[local] - nf * m * m) / (nf - 1.0)).max(DVec3::ZERO) / nf)
+                    (((film.sum_sq[local] - nf * mean * mean) / (nf - 1.0)).max(DVec3::ZERO) / nf)
                         .as_vec3()
                 } else {
                     Vec3::ZERO

@@ -35,12 +35,12 @@ const MAX_NODE_DEPTH: usize = 256;
 /// How many node instances the scene graph may expand to: `<instance_node>`
 /// chains can multiply without a cycle (each node instancing the next twice).
 const MAX_NODE_VISITS: usize = 1 << 20;
-/// How many triangles (and spheres) the instances may add up to: a few
-/// hundred bytes each once loaded, built into a BVH and shaded, so 2^26
-/// already takes ~20 GB. A small file can ask for far more (a mesh instanced by
-/// a chain of nodes that each instance the next twice), and would
-/// otherwise end in a failed allocation.
-pub const MAX_TRIANGLES: usize = 1 << 26;
+/// How many primitives (triangles, spheres) the instances may add up to:
+/// a few hundred bytes each once loaded, built into a BVH and shaded, so
+/// 2^26 already takes ~20 GB. A small file can ask for far more (a mesh
+/// instanced by a chain of nodes that each instance the next twice), and
+/// would otherwise end in a failed allocation.
+const MAX_PRIMITIVES: u64 = 1 << 26;
 /// The largest coordinate the renderer is made for: the watertight
 /// ray/triangle test multiplies three coordinates relative to the ray
 /// origin, which overflows f32 (3.4e38) near 7e12.
@@ -224,7 +224,7 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
         for node in children(scene, "node") {
             primitives = primitives.saturating_add(self.expanded_primitives(node, 0)?);
         }
-        if primitives > MAX_TRIANGLES as u64 {
+        if primitives > MAX_PRIMITIVES {
             let count = match primitives {
                 u64::MAX => "more than 2^64".to_string(),
                 n => n.to_string(),
@@ -232,7 +232,7 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
             return Err(src.error(
                 scene,
                 format!(
-                    "the scene's instances add up to {count} primitives, more than the {MAX_TRIANGLES} (2^26) wavepath takes"
+                    "the scene's instances add up to {count} primitives, more than the {MAX_PRIMITIVES} (2^26) wavepath takes"
                 ),
             ));
         }
@@ -584,17 +584,14 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
                 c.optics,
             ),
             None => {
-                self.warnings.push(format!(
-                    "{}: no camera; viewing from +z",
-                    self.src.path.display()
-                ));
+                self.warnings
+                    .push(format!("{path}: no camera; viewing from +z"));
                 (Vec3::Z, Perspective::default())
             }
         };
         if view_dir.length_squared() == 0.0 {
             self.warnings.push(format!(
-                "{}: the camera's view direction is zero; viewing from +z",
-                self.src.path.display()
+                "{path}: the camera's view direction is zero; viewing from +z"
             ));
         }
         let camera = Camera::place(view_dir, &optics, bounds.min, bounds.max);
