@@ -355,3 +355,79 @@ fn non_finite_pixels_are_said_and_written_as_zero() {
     let image = read_image(&out).unwrap();
     assert!(image.pixels.iter().all(|p| p.is_finite()));
 }
+
+/// A scene that nothing lights renders what it emits — here nothing, so
+/// black — exits 0 and says why, once; a light of colour 0 0 0 lights
+/// nothing and is said to. Emission alone (`-m 0`) needs no light and
+/// gets no warning, nor does a lit scene. (A W×H render is the central
+/// crop of the 800×600 view, so it is large enough to take in the objects.)
+#[test]
+fn a_scene_without_light_warns_once_and_renders_black() {
+    let lit = include_str!("fixtures/minimal.dae");
+    let dark = lit.replace("<color>1 1 1</color>", "<color>0 0 0</color>");
+    let unlit = lit.replace("<instance_light url=\"#lamp\"/>", "");
+    assert!(dark != lit && unlit != lit, "the fixture changed");
+    let cases = [
+        ("lit", lit, "2", None),
+        (
+            "dark",
+            dark.as_str(),
+            "2",
+            Some("every light's colour is 0 0 0"),
+        ),
+        (
+            "unlit",
+            unlit.as_str(),
+            "2",
+            Some("the scene has no lights"),
+        ),
+        ("unlit-m0", unlit.as_str(), "0", None),
+    ];
+    for (name, text, depth, says) in cases {
+        let scene = scratch(&format!("{name}.dae"));
+        std::fs::write(&scene, text).unwrap();
+        let out = scratch(&format!("{name}.exr"));
+        let o = wavepath(&[
+            "-q",
+            "-s",
+            "2",
+            "-m",
+            depth,
+            "-r",
+            "400",
+            "300",
+            "-f",
+            out.to_str().unwrap(),
+            scene.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        let err = stderr(&o);
+        let warnings: Vec<&str> = err
+            .lines()
+            .filter(|l| l.contains("only emission seen directly"))
+            .collect();
+        let image = read_image(&out).unwrap();
+        let brightest = image
+            .pixels
+            .iter()
+            .map(|p| p.max_element())
+            .fold(0.0, f32::max);
+        match says {
+            Some(reason) => {
+                assert_eq!(warnings.len(), 1, "{name}: {err}");
+                assert!(warnings[0].contains(reason), "{name}: {err}");
+                assert!(
+                    warnings[0].contains(&format!("{name}.dae")),
+                    "{name}: {err}"
+                );
+                assert_eq!(brightest, 0.0, "{name}: nothing emits, yet a pixel is lit");
+            }
+            None => {
+                assert!(warnings.is_empty(), "{name}: {err}");
+                if depth != "0" {
+                    assert!(brightest > 0.0, "{name}: the lit scene rendered black");
+                }
+            }
+        }
+    }
+}

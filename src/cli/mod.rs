@@ -267,8 +267,13 @@ pub fn run() -> Result<i32> {
             eprintln!("warning: {w}");
         }
         if renderer.lights.is_empty() && settings.integrator.max_depth > 0 {
+            let why = if scene.lights.is_empty() {
+                "the scene has no lights"
+            } else {
+                "no light of the scene emits (every light's colour is 0 0 0)"
+            };
             eprintln!(
-                "warning: {}: the scene has no lights; only emission seen directly will show",
+                "warning: {}: {why}; only emission seen directly will show",
                 scene_name.display()
             );
         }

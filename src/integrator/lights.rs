@@ -426,7 +426,9 @@ impl LightSet {
         } else {
             bounds.min.abs().max(bounds.max.abs()).max_element()
         };
-        for light in &scene.lights {
+        // A light of colour 0 would only cost shadow rays (an area light's
+        // rectangle stays in the geometry all the same).
+        for light in scene.lights.iter().filter(|light| light.emits()) {
             set.sources.push(match *light {
                 Light::Point {
                     position,

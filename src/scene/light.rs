@@ -24,6 +24,18 @@ pub enum Light {
 }
 
 impl Light {
+    /// Whether the light sends out anything: a colour of 0 0 0 (negative
+    /// components are refused when loading) lights nothing.
+    pub fn emits(&self) -> bool {
+        let colour = match *self {
+            Light::Point { intensity, .. } => intensity,
+            Light::Directional { radiance, .. }
+            | Light::Area { radiance, .. }
+            | Light::Hemisphere { radiance } => radiance,
+        };
+        colour.max_element() > 0.0
+    }
+
     pub fn kind_name(&self) -> &'static str {
         match self {
             Light::Point { .. } => "point",
