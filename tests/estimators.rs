@@ -382,19 +382,52 @@ fn images_are_bit_identical_across_threads_and_batch_sizes() {
         "/scenes/torus_knot.dae"
     )))
     .unwrap();
-    for scene in [floor, knot] {
+    // Each setting also with what draws more random numbers or drops
+    // pixels: roulette at every vertex from the second, the adaptive mask,
+    // hemisphere probes, a thin lens.
+    let base = {
         let mut s = settings(37, 23, 8, 4);
         s.integrator.light_samples = 2;
-        let one = render(&scene, &s, 1);
-        s.batch_size = 61;
-        s.tile_size = 7;
-        let two = render(&scene, &s, 2);
-        assert!(one.pixels.iter().any(|p| *p != Vec3::ZERO));
-        for (a, b) in one.pixels.iter().zip(&two.pixels) {
-            assert_eq!(
-                a.to_array().map(f32::to_bits),
-                b.to_array().map(f32::to_bits)
-            );
+        s
+    };
+    let roulette_and_mask = {
+        let mut s = base;
+        s.spp = 16;
+        s.integrator.max_depth = 6;
+        s.integrator.roulette_depth = 1;
+        s.adaptive = Some(Adaptive {
+            samples_per_batch: 4,
+            tolerance: 0.2,
+        });
+        s
+    };
+    let probes_and_lens = {
+        let mut s = base;
+        s.integrator.hemisphere = true;
+        s.lens_radius = 0.05;
+        s.focal_distance = 3.0;
+        s
+    };
+    for scene in [floor, knot] {
+        for mut s in [base, roulette_and_mask, probes_and_lens] {
+            let one = render(&scene, &s, 1);
+            s.batch_size = 61;
+            s.tile_size = 7;
+            let two = render(&scene, &s, 2);
+            assert!(one.pixels.iter().any(|p| *p != Vec3::ZERO));
+            assert_eq!(one.samples, two.samples);
+            if s.adaptive.is_some() {
+                assert!(
+                    one.samples.iter().any(|&n| n < s.spp),
+                    "no pixel left the mask"
+                );
+            }
+            for (a, b) in one.pixels.iter().zip(&two.pixels) {
+                assert_eq!(
+                    a.to_array().map(f32::to_bits),
+                    b.to_array().map(f32::to_bits)
+                );
+            }
         }
     }
 }
@@ -430,4 +463,191 @@ fn sheared_rectangle_light_matches_the_form_factor() {
         &expected,
         1e-5,
     );
+}
+
+/// Camera rays straight up from a floor point: every pixel sees the sky.
+fn looking_up_camera() -> wavepath::scene::Camera {
+    camera(Vec3::new(0.0, 0.5, 0.0), Vec3::Y, Vec3::Z, 60.0, H)
+}
+
+#[test]
+fn sky_light_on_a_floor_reflects_albedo_times_its_radiance() {
+    // A uniform sky of radiance L over the upper hemisphere gives a
+    // horizontal floor E = π L, so L_o = ρ/π · π L = ρ L at every point;
+    // a lone floor reflects nothing further at any depth.
+    let radiance = 2.0f32;
+    let sky_scene = |camera| {
+        let mut b = Builder::default();
+        floor_scene(&mut b);
+        b.lights.push(Light::Hemisphere {
+            radiance: Vec3::new(radiance, 0.5 * radiance, 0.0),
+        });
+        b.build(camera)
+    };
+    let scene = sky_scene(top_down_camera(3.0));
+    let expected = (ALBEDO * radiance) as f64;
+    for (hemisphere, depth) in [(false, 1), (false, 3), (true, 1)] {
+        let mut s = settings(W, H, 16, depth);
+        s.integrator.hemisphere = hemisphere;
+        s.integrator.light_samples = 2;
+        let image = render(&scene, &s, 2);
+        let what = format!("sky, -H {hemisphere}, -m {depth}");
+        for (c, scale) in [(0, 1.0), (1, 0.5)] {
+            let est = channel(&image, c);
+            assert_unbiased(&what, &est, &vec![scale * expected; est.len()], 1e-5);
+        }
+        assert!(
+            image.pixels.iter().all(|p| p.z == 0.0),
+            "{what}: blue light"
+        );
+    }
+    // The sky lights surfaces but is not seen: camera rays that escape are black.
+    let up = sky_scene(looking_up_camera());
+    let image = render(&up, &settings(W, H, 4, 3), 2);
+    assert!(image.pixels.iter().all(|p| *p == Vec3::ZERO));
+}
+
+#[test]
+fn directional_light_lights_a_floor_by_its_cosine() {
+    // Radiance E arriving from one direction at angle θ from the normal:
+    // L_o = ρ/π · E cos θ, the same at every floor point.
+    let to_light = Vec3::new(1.0, 2.0, 0.5).normalize();
+    let radiance = 3.0f32;
+    let mut b = Builder::default();
+    floor_scene(&mut b);
+    b.lights.push(Light::Directional {
+        to_light,
+        radiance: Vec3::splat(radiance),
+    });
+    let scene = b.build(top_down_camera(3.0));
+    let expected = ALBEDO as f64 / PI * radiance as f64 * to_light.y as f64;
+    let image = render(&scene, &settings(W, H, 2, 2), 2);
+    for p in &image.pixels {
+        assert!(
+            ((p.x as f64) - expected).abs() <= 1e-5 * expected,
+            "{p} vs {expected}"
+        );
+    }
+    // Uniform hemisphere probes never find a delta light (a direction or a
+    // point), as in the reference: -H leaves such scenes black.
+    let mut b = Builder::default();
+    floor_scene(&mut b);
+    b.lights.push(Light::Directional {
+        to_light,
+        radiance: Vec3::splat(radiance),
+    });
+    b.lights.push(Light::Point {
+        position: Vec3::new(0.0, 1.0, 0.0),
+        intensity: Vec3::splat(5.0),
+    });
+    let scene = b.build(top_down_camera(3.0));
+    let mut s = settings(W, H, 4, 1);
+    s.integrator.hemisphere = true;
+    let image = render(&scene, &s, 2);
+    assert!(image.pixels.iter().all(|p| *p == Vec3::ZERO));
+}
+
+#[test]
+fn emissive_triangles_of_unequal_area_and_radiance_match_their_form_factors() {
+    // Two disjoint emissive triangles at height 1, areas 0.72 and 0.045,
+    // with radiances that differ per channel: a triangle chosen with one
+    // probability and weighted with another, or lit with another
+    // triangle's radiance, shows as a biased channel.
+    let big = [
+        Vec3::new(-0.9, 1.0, -0.6),
+        Vec3::new(0.3, 1.0, -0.6),
+        Vec3::new(-0.9, 1.0, 0.6),
+    ];
+    let small = [
+        Vec3::new(0.4, 1.0, 0.0),
+        Vec3::new(0.7, 1.0, 0.0),
+        Vec3::new(0.4, 1.0, 0.3),
+    ];
+    let (l_big, l_small) = (Vec3::new(2.0, 0.0, 1.0), Vec3::new(8.0, 0.0, 16.0));
+    let mut b = Builder::default();
+    floor_scene(&mut b);
+    for (tri, radiance) in [(big, l_big), (small, l_small)] {
+        let m = b.material(Material::Emission {
+            radiance,
+            one_sided: false,
+        });
+        b.triangle(tri[0], tri[1], tri[2], m);
+    }
+    let scene = b.build(top_down_camera(0.8));
+    let mut s = settings(W, H, 16, 1);
+    s.integrator.light_samples = 4;
+    let image = render(&scene, &s, 2);
+    for c in [0, 2] {
+        let expected = pixel_average(&scene, W, H, |x| {
+            ALBEDO as f64 / PI
+                * (l_big[c] as f64 * polygon_irradiance(x, Vec3::Y, &big)
+                    + l_small[c] as f64 * polygon_irradiance(x, Vec3::Y, &small))
+        });
+        assert_unbiased(
+            &format!("two emissive triangles, channel {c}"),
+            &channel(&image, c),
+            &expected,
+            1e-5,
+        );
+    }
+}
+
+/// An emissive sphere of radius r and radiance Lₑ at the centre of the
+/// diffuse furnace sphere (radius 1, albedo ρ). By symmetry every wall
+/// point sees the same: the emitter fills a cap of form factor s = r², so
+/// bounce 1 brings ρ Lₑ s, and every further bounce multiplies by ρ(1 − s)
+/// (the emitter reflects nothing and hides that part of the wall). BSDF
+/// rays hit the emitter all the time here, so emission counted both by
+/// them and by light sampling would show at once.
+fn furnace_with_emitter(radius: f32, radiance: f32) -> Scene {
+    let mut b = Builder::default();
+    let wall = b.material(Material::Diffuse {
+        albedo: Vec3::splat(ALBEDO),
+    });
+    let lamp = b.material(Material::Emission {
+        radiance: Vec3::splat(radiance),
+        one_sided: false,
+    });
+    b.sphere(Vec3::ZERO, 1.0, wall);
+    b.sphere(Vec3::ZERO, radius, lamp);
+    // Between the spheres, looking out at the wall.
+    b.build(camera(
+        Vec3::new(0.0, 0.0, 0.7),
+        Vec3::new(0.2, -0.1, 1.0),
+        Vec3::Y,
+        60.0,
+        18,
+    ))
+}
+
+#[test]
+fn furnace_lit_by_an_emitter_it_can_hit_matches_the_series() {
+    let (r, le) = (0.4f64, 1.5f64);
+    let scene = furnace_with_emitter(r as f32, le as f32);
+    let s_cap = r * r;
+    let rho = ALBEDO as f64;
+    let bounce = |k: u32| rho * le * s_cap * (rho * (1.0 - s_cap)).powi(k as i32 - 1);
+    for (m, bounces, from) in [
+        (1, Bounces::Accumulate, 5),
+        (4, Bounces::Accumulate, 5),
+        (9, Bounces::Accumulate, 1),
+        (4, Bounces::Last, 5),
+        (4, Bounces::Indirect, 1),
+    ] {
+        let mut s = settings(24, 18, 32, m);
+        s.integrator.bounces = bounces;
+        s.integrator.roulette_depth = from;
+        let expected: f64 = match bounces {
+            Bounces::Accumulate => (1..=m).map(bounce).sum(),
+            Bounces::Last => bounce(m),
+            Bounces::Indirect => (2..=m).map(bounce).sum(),
+        };
+        let est = channel(&render(&scene, &s, 2), 1);
+        assert_unbiased(
+            &format!("furnace with an emitter, -m {m} {bounces:?}, roulette from {from}"),
+            &est,
+            &vec![expected; est.len()],
+            1e-4,
+        );
+    }
 }
