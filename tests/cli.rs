@@ -431,3 +431,282 @@ fn a_scene_without_light_warns_once_and_renders_black() {
         }
     }
 }
+
+/// The items column of a `--stats` stage line, `None` when the stage was skipped.
+fn stage_items(err: &str, stage: &str) -> Option<u64> {
+    let line = err
+        .lines()
+        .find(|l| l.starts_with(stage))
+        .unwrap_or_else(|| panic!("no {stage} line: {err}"));
+    let items = line[stage.len()..].split_whitespace().next().unwrap();
+    (items != "skipped").then(|| items.parse().unwrap())
+}
+
+/// `--stats` counts what each stage did, and a stage with nothing to do is
+/// not run: no continuation rays at `-m 0` and `-m 1`, no shadow rays at
+/// `-m 0` or without a light, no camera rays for pixels that converged.
+#[test]
+fn stats_count_each_stage_and_idle_stages_are_skipped() {
+    let cornell = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    let out = scratch("stages.png");
+    let run = |scene: &str, args: &[&str]| -> String {
+        let mut all = vec!["-q", "--stats", "-r", "32", "24"];
+        all.extend_from_slice(args);
+        all.extend_from_slice(&["-f", out.to_str().unwrap(), scene]);
+        let o = wavepath(&all);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    let camera_rays = 32 * 24 * 4;
+    let fixed = ["-s", "4", "--no-adaptive"];
+
+    let err = run(cornell, &[&fixed[..], &["-m", "0"]].concat());
+    assert_eq!(stage_items(&err, "generate"), Some(camera_rays), "{err}");
+    assert_eq!(stage_items(&err, "intersect"), Some(camera_rays), "{err}");
+    assert_eq!(stage_items(&err, "shadow-test"), None, "{err}");
+
+    let err = run(cornell, &[&fixed[..], &["-m", "1"]].concat());
+    assert_eq!(stage_items(&err, "intersect"), Some(camera_rays), "{err}");
+    assert!(stage_items(&err, "shadow-test").unwrap() > 0, "{err}");
+
+    let err = run(cornell, &[&fixed[..], &["-m", "3"]].concat());
+    assert!(
+        stage_items(&err, "intersect").unwrap() > camera_rays,
+        "{err}"
+    );
+
+    // Converged pixels drop out: fewer camera rays than -s asks for, in
+    // whole batches of -a's first number per pixel.
+    let err = run(cornell, &["-s", "64", "-a", "4", "0.5", "-m", "1"]);
+    let generated = stage_items(&err, "generate").unwrap();
+    assert!(
+        generated < 32 * 24 * 64 && generated.is_multiple_of(4),
+        "{err}"
+    );
+
+    // The minimal fixture with and without its light: the same hits, and
+    // shadow rays only when there is a light to test.
+    let lit = include_str!("fixtures/minimal.dae");
+    let unlit = lit.replace("<instance_light url=\"#lamp\"/>", "");
+    for (name, text, shadows) in [("stages-lit", lit, true), ("stages-unlit", &unlit, false)] {
+        let scene = scratch(&format!("{name}.dae"));
+        std::fs::write(&scene, text).unwrap();
+        // -r 400 300: the central crop takes in the objects.
+        let o = wavepath(&[
+            "-q",
+            "--stats",
+            "-s",
+            "1",
+            "-m",
+            "2",
+            "-r",
+            "400",
+            "300",
+            "-f",
+            out.to_str().unwrap(),
+            scene.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let err = stderr(&o);
+        assert_eq!(
+            stage_items(&err, "shadow-test").is_some(),
+            shadows,
+            "{name}: {err}"
+        );
+    }
+}
+
+/// `--shading bvh-cost` maps each pixel's traversal steps to the rate
+/// colours, and `--stats` counts them: without a tree every ray tests every
+/// triangle (so every pixel costs the same), with one it tests a handful
+/// and the cost varies across the image.
+#[test]
+fn bvh_cost_view_and_traversal_counters() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/torus_knot.dae");
+    let per_ray = |line: &str, what: &str| -> f64 {
+        let field = line
+            .split(',')
+            .find(|f| f.contains(what))
+            .unwrap_or_else(|| panic!("no {what} in {line}"));
+        field.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    for accel in ["none", "median", "sah"] {
+        let out = scratch(&format!("cost-{accel}.exr"));
+        let o = wavepath(&[
+            "-q",
+            "--stats",
+            "-s",
+            "1",
+            "-r",
+            "64",
+            "48",
+            "--accel",
+            accel,
+            "--shading",
+            "bvh-cost",
+            "-f",
+            out.to_str().unwrap(),
+            scene,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let err = stderr(&o);
+        let triangles: f64 = err
+            .lines()
+            .find_map(|l| l.strip_prefix("scene: "))
+            .and_then(|l| l.split_whitespace().next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("no scene line: {err}"));
+        let traversal = err
+            .lines()
+            .find(|l| l.starts_with("traversal:"))
+            .unwrap_or_else(|| panic!("no traversal line: {err}"));
+        let (nodes, prims) = (
+            per_ray(traversal, "nodes visited/ray"),
+            per_ray(traversal, "primitives tested/ray"),
+        );
+        let image = read_image(&out).unwrap();
+        let first = image.pixels[0];
+        let uniform = image.pixels.iter().all(|p| *p == first);
+        assert!(image.pixels.iter().all(|p| p.is_finite()));
+        if accel == "none" {
+            assert_eq!((nodes, prims), (0.0, triangles), "{traversal}");
+            assert!(uniform, "every ray costs the same without a tree");
+        } else {
+            assert!(
+                nodes >= 1.0 && prims < 0.01 * triangles,
+                "{accel}: {traversal}"
+            );
+            assert!(!uniform, "{accel}: the heat map shows no variation");
+        }
+    }
+}
+
+/// Materials the integrator does not render yet are shaded as diffuse
+/// with one warning per kind in use, however many materials of that kind.
+#[test]
+fn unrendered_materials_warn_once_per_kind() {
+    let mirror = "<extra><technique profile=\"CGL\"><mirror><reflectance>1 1 1</reflectance></mirror></technique></extra>";
+    let glass = "<extra><technique profile=\"CGL\"><glass><reflectance>1 1 1</reflectance><transmittance>1 1 1</transmittance><roughness>0</roughness><ior>1.5</ior></glass></technique></extra>";
+    let base = include_str!("fixtures/minimal.dae");
+    // The fixture's one effect (the triangle's) becomes a mirror; a second
+    // mirror and a glass are added for the sphere to use.
+    let effects = format!(
+        "</profile_COMMON>\n      {mirror}\n    </effect>\n    \
+         <effect id=\"fx2\"><profile_COMMON/>{mirror}</effect>\n    \
+         <effect id=\"fx3\"><profile_COMMON/>{glass}</effect>"
+    );
+    let text = base
+        .replacen("</profile_COMMON>\n    </effect>", &effects, 1)
+        .replacen(
+            "</library_materials>",
+            "<material id=\"mat2\"><instance_effect url=\"#fx2\"/></material>\
+             <material id=\"mat3\"><instance_effect url=\"#fx3\"/></material></library_materials>",
+            1,
+        );
+    assert!(
+        text.contains("fx3") && text.contains("ball-sym\" target=\"#mat\""),
+        "the fixture changed"
+    );
+    let out = scratch("fallbacks.png");
+    // The sphere as the second mirror, then as glass.
+    for (sphere, glass_warnings) in [("#mat2", 0), ("#mat3", 1)] {
+        let scene = scratch("fallbacks.dae");
+        let bound = format!("ball-sym\" target=\"{sphere}\"");
+        std::fs::write(
+            &scene,
+            text.replacen("ball-sym\" target=\"#mat\"", &bound, 1),
+        )
+        .unwrap();
+        let o = wavepath(&[
+            "-q",
+            "-s",
+            "1",
+            "-r",
+            "40",
+            "30",
+            "-f",
+            out.to_str().unwrap(),
+            scene.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let err = stderr(&o);
+        let count = |kind: &str| {
+            err.lines()
+                .filter(|l| l.starts_with("warning:") && l.contains(&format!("{kind} materials")))
+                .count()
+        };
+        assert_eq!(count("mirror"), 1, "sphere {sphere}: {err}");
+        assert_eq!(count("glass"), glass_warnings, "sphere {sphere}: {err}");
+        assert!(err.contains("shading them as diffuse"), "{err}");
+    }
+}
+
+/// An adaptive render's sample counts: the EXR's `samples` channel holds
+/// each pixel's count (whole batches, summing to the camera rays `--stats`
+/// reports), and `<name>_rate.png` codes count/`-s` as the reference does:
+/// blue at 0, green at ½, red at 1, linear, each channel trunc(255·c).
+#[test]
+fn adaptive_sample_counts_reach_the_exr_and_the_rate_image() {
+    let exr = scratch("counts.exr");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    let spp = 64u32;
+    let o = wavepath(&[
+        "-q",
+        "--stats",
+        "-s",
+        "64",
+        "-a",
+        "4",
+        "0.3",
+        "-m",
+        "1",
+        "-r",
+        "32",
+        "24",
+        "-f",
+        exr.to_str().unwrap(),
+        scene,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let image = read_image(&exr).unwrap();
+    let counts = &image.samples;
+    assert_eq!(counts.len(), 32 * 24);
+    assert!(
+        counts
+            .iter()
+            .all(|&n| (4..=spp).contains(&n) && n.is_multiple_of(4))
+    );
+    // No pixel took all of -s, so coding by the image's own maximum (a
+    // rate of 1 for its largest count) would show here.
+    let most = *counts.iter().max().unwrap();
+    assert!(
+        most < spp && counts.iter().any(|&n| n < most),
+        "counts up to {most}"
+    );
+    let total: u64 = counts.iter().map(|&n| n as u64).sum();
+    assert_eq!(stage_items(&stderr(&o), "generate"), Some(total));
+
+    let rate = image::open(scratch_path("counts_rate.png"))
+        .unwrap()
+        .to_rgb8();
+    assert_eq!(rate.dimensions(), (32, 24));
+    for (i, px) in rate.pixels().enumerate() {
+        let r = counts[i] as f64 / spp as f64;
+        let colour = if r <= 0.5 {
+            let blue = (0.5 - r) / 0.5;
+            [0.0, 1.0 - blue, blue]
+        } else {
+            let green = (1.0 - r) / 0.5;
+            [1.0 - green, green, 0.0]
+        };
+        for c in 0..3 {
+            let want = (255.0 * colour[c]) as i32;
+            assert!(
+                (px.0[c] as i32 - want).abs() <= 1,
+                "pixel {i}: {} samples coded {:?}, expected {colour:?}",
+                counts[i],
+                px.0
+            );
+        }
+    }
+}

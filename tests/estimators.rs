@@ -12,7 +12,7 @@ use std::f64::consts::PI;
 use common::render::*;
 use glam::Vec3;
 use wavepath::film::adaptive::Adaptive;
-use wavepath::integrator::{Bounces, Settings};
+use wavepath::integrator::{Bounces, Settings, View};
 use wavepath::scene::{Light, Material, Scene};
 use wavepath::wavefront::RenderSettings;
 
@@ -733,6 +733,40 @@ fn thin_lens_blurs_an_edge_by_its_circle_of_confusion() {
             assert!(
                 (mean - want).abs() <= 5.0 * se + 1e-3,
                 "focus {f}, column {x}: {mean:.4} ± {se:.1e}, expected {want:.4}"
+            );
+        }
+    }
+}
+
+#[test]
+fn normals_view_shows_the_normal_facing_the_viewer_as_colour() {
+    // (n + 1) / 2 of the shading normal: the floor (n = +y) from above,
+    // and the inside of the furnace sphere, whose normal at the point a
+    // ray from the centre meets is −d, facing the camera at the centre.
+    let mut b = Builder::default();
+    floor_scene(&mut b);
+    let floor = b.build(top_down_camera(3.0));
+    let mut s = settings(W, H, 2, 3);
+    s.integrator.view = View::Normals;
+    let image = render(&floor, &s, 2);
+    for p in &image.pixels {
+        assert!(
+            (*p - Vec3::new(0.5, 1.0, 0.5)).abs().max_element() < 1e-6,
+            "{p}"
+        );
+    }
+    // One sample per pixel: the ray through the pixel's centre.
+    let sphere = furnace();
+    let (w, h) = (W, H);
+    let image = render(&sphere, &RenderSettings { spp: 1, ..s }, 2);
+    for row in 0..h {
+        for x in 0..w {
+            let d = pixel_ray(&sphere, w, h, x, row).normalize();
+            let want = 0.5 * (-d + Vec3::ONE);
+            let got = image.pixels[(row * w + x) as usize];
+            assert!(
+                (got - want).abs().max_element() < 1e-4,
+                "({x}, {row}): {got} vs {want}"
             );
         }
     }

@@ -311,7 +311,8 @@ pub fn run() -> Result<i32> {
     }
     output::write_image(&result.image, &output_path, args.tonemap, with_rate)?;
     if with_rate {
-        output::write_rate_png(&result.image, &output::rate_path(&output_path))?;
+        let rate_path = output::rate_path(&output_path);
+        output::write_rate_png(&result.image, settings.spp, &rate_path)?;
     }
 
     if chatty {

@@ -198,15 +198,18 @@ pub fn rate_colour(rate: f32) -> Vec3 {
     }
 }
 
-/// Writes the per-pixel sample counts as a colour-coded PNG.
-pub fn write_rate_png(image: &Image, path: &Path) -> Result<()> {
-    let max = image.samples.iter().copied().max().unwrap_or(1).max(1) as f32;
+/// Writes the per-pixel sample counts as a colour-coded PNG, coded as the
+/// reference codes them: the rate is a pixel's count over `max_samples`
+/// (`-s`), so a render whose pixels all stopped early shows no red, and
+/// each channel is written as trunc(255·c), linear.
+pub fn write_rate_png(image: &Image, max_samples: u32, path: &Path) -> Result<()> {
+    let max = max_samples.max(1) as f32;
     let data = image
         .samples
         .iter()
         .flat_map(|&n| {
             let c = rate_colour(n as f32 / max);
-            [c.x, c.y, c.z].map(|v| (255.0 * v).round() as u8)
+            [c.x, c.y, c.z].map(|v| (255.0 * v) as u8)
         })
         .collect();
     save_rgb8(image.width, image.height, data, path)
