@@ -475,6 +475,25 @@ fn stats_count_each_stage_and_idle_stages_are_skipped() {
         "{err}"
     );
 
+    // -l: samples per area light, each a shadow ray (the box's one light
+    // is seen whole from every point that sees it at all); -H replaces
+    // them with hemisphere probes.
+    let shadow_rays = |l: &str| {
+        let err = run(cornell, &[&fixed[..], &["-m", "1", "-l", l]].concat());
+        stage_items(&err, "shadow-test").unwrap() as f64
+    };
+    let ratio = shadow_rays("3") / shadow_rays("1");
+    assert!(
+        (ratio - 3.0).abs() < 0.03,
+        "-l 3 traced {ratio}× the shadow rays of -l 1"
+    );
+    let err = run(
+        cornell,
+        &[&fixed[..], &["-m", "1", "-H", "-l", "2"]].concat(),
+    );
+    assert_eq!(stage_items(&err, "shadow-test"), None, "{err}");
+    assert!(stage_items(&err, "probe (-H)").unwrap() > 0, "{err}");
+
     // Converged pixels drop out: fewer camera rays than -s asks for, in
     // whole batches of -a's first number per pixel.
     let err = run(cornell, &["-s", "64", "-a", "4", "0.5", "-m", "1"]);
@@ -709,4 +728,36 @@ fn adaptive_sample_counts_reach_the_exr_and_the_rate_image() {
             );
         }
     }
+}
+
+/// The three `--accel` modes answer every query alike, so a path-traced
+/// render (closest hits, shadow rays, camera-ray packets) is the same file
+/// whichever builds the tree, or none does.
+#[test]
+fn every_accel_mode_renders_the_same_image() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/torus_knot.dae");
+    let files: Vec<Vec<u8>> = ["none", "median", "sah"]
+        .iter()
+        .map(|accel| {
+            let out = scratch(&format!("accel-{accel}.exr"));
+            let o = wavepath(&[
+                "-q",
+                "-s",
+                "4",
+                "-m",
+                "3",
+                "-r",
+                "64",
+                "48",
+                "--accel",
+                accel,
+                "-f",
+                out.to_str().unwrap(),
+                scene,
+            ]);
+            assert!(o.status.success(), "{}", stderr(&o));
+            std::fs::read(&out).unwrap()
+        })
+        .collect();
+    assert!(files[0] == files[1] && files[1] == files[2]);
 }

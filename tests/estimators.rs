@@ -771,3 +771,62 @@ fn normals_view_shows_the_normal_facing_the_viewer_as_colour() {
         }
     }
 }
+
+#[test]
+fn area_light_shows_its_radiance_to_the_side_it_faces_and_nothing_behind() {
+    // The square light of the form-factor tests (height 1, facing down).
+    // From below, a camera ray that meets it sees exactly its radiance
+    // (not the reference's spectrum/area·cos); from above it is black and
+    // lights nothing: a floor above it, facing it, stays dark.
+    let radiance = 4.0f32;
+    let light = Light::Area {
+        center: Vec3::new(0.0, 1.0, 0.0),
+        normal: Vec3::NEG_Y,
+        dim_x: Vec3::X,
+        dim_y: Vec3::Z,
+        radiance: Vec3::splat(radiance),
+    };
+    let mut b = Builder::default();
+    b.lights.push(light.clone());
+    let below = b.build(camera(Vec3::ZERO, Vec3::Y, Vec3::Z, 40.0, H));
+    let image = render(&below, &settings(W, H, 4, 2), 2);
+    let mut seen = 0;
+    for row in 0..H {
+        for x in 0..W {
+            // Pixels whose whole footprint lies well inside the square.
+            let d = pixel_ray(&below, W, H, x, row);
+            let hit = d * (1.0 / d.y);
+            if hit.x.abs().max(hit.z.abs()) < 0.4 {
+                seen += 1;
+                assert_eq!(image.pixels[(row * W + x) as usize], Vec3::splat(radiance));
+            }
+        }
+    }
+    assert!(seen > 20, "{seen} pixels on the light");
+
+    // A ceiling at height 2 facing down at the light's back, seen from
+    // between them: black at any depth, by light sampling and by -H.
+    let mut b = Builder::default();
+    let grey = b.material(Material::Diffuse {
+        albedo: Vec3::splat(ALBEDO),
+    });
+    let s = 50.0;
+    b.quad(
+        Vec3::new(-s, 2.0, -s),
+        Vec3::new(s, 2.0, -s),
+        Vec3::new(s, 2.0, s),
+        Vec3::new(-s, 2.0, s),
+        grey,
+    );
+    b.lights.push(light);
+    let above = b.build(camera(Vec3::new(0.0, 1.5, 0.0), Vec3::Y, Vec3::Z, 90.0, H));
+    for hemisphere in [false, true] {
+        let mut st = settings(W, H, 8, 3);
+        st.integrator.hemisphere = hemisphere;
+        let image = render(&above, &st, 2);
+        assert!(
+            image.pixels.iter().all(|p| *p == Vec3::ZERO),
+            "-H {hemisphere}: light reached the back side"
+        );
+    }
+}
