@@ -43,6 +43,19 @@ pub(crate) struct BuildParams {
     pub top_slots: usize,
 }
 
+impl BuildParams {
+    /// The textbook build (`--accel median`): midpoint of the longest
+    /// centroid axis, leaves of at most four primitives, nothing set apart.
+    pub const MIDPOINT: BuildParams = BuildParams {
+        sah: false,
+        bins: 0,
+        traversal_cost: 0.0,
+        lanes: 1,
+        max_leaf: 4,
+        top_slots: 0,
+    };
+}
+
 /// Depth after which splits fall back to the object median, which halves
 /// the primitive count at each level. This bounds the tree depth (and so the
 /// traversal stack) for any input, however adversarial.
@@ -676,6 +689,78 @@ mod tests {
             seen.sort();
             assert_eq!(seen, (0..10_000).collect::<Vec<u32>>());
         }
+    }
+
+    /// The textbook build splits every node at the midpoint of its
+    /// centroids' longest axis (the object median only when that leaves a
+    /// side empty) and stops at four primitives or fewer.
+    #[test]
+    fn midpoint_build_splits_at_the_centroid_midpoint_into_leaves_of_four() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let bounds: Vec<Aabb> = (0..3000)
+            .map(|_| {
+                // Clustered along x so that midpoints and medians differ.
+                let p = Vec3::new(next().powi(3) * 8.0, next() * 2.0, next());
+                Aabb {
+                    min: p,
+                    max: p + Vec3::splat(0.01 * next()),
+                }
+            })
+            .collect();
+        let centroid = |id: u32| bounds[id as usize].center();
+        let (root, order) = build(&bounds, bounds.len() as u32, BuildParams::MIDPOINT);
+        fn ids(node: &BuildNode, order: &[u32], out: &mut Vec<u32>) {
+            match node {
+                BuildNode::Leaf { start, count, .. } => {
+                    out.extend_from_slice(&order[*start as usize..(*start + *count) as usize])
+                }
+                BuildNode::Inner { children, .. } => {
+                    ids(&children[0], order, out);
+                    ids(&children[1], order, out);
+                }
+            }
+        }
+        let (mut inner, mut midpoint) = (0, 0);
+        let mut stack = vec![root.as_ref().unwrap()];
+        while let Some(node) = stack.pop() {
+            match node {
+                BuildNode::Leaf { count, .. } => assert!(*count <= 4, "leaf of {count}"),
+                BuildNode::Inner {
+                    children, count, ..
+                } => {
+                    assert!(*count > 4, "a node of {count} was split");
+                    let (mut left, mut right) = (Vec::new(), Vec::new());
+                    ids(&children[0], &order, &mut left);
+                    ids(&children[1], &order, &mut right);
+                    let all = left.iter().chain(&right).map(|&id| centroid(id));
+                    let (lo, hi) = all.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| {
+                        (lo.min(c), hi.max(c))
+                    });
+                    let axis = (hi - lo).max_position();
+                    let plane = 0.5 * (lo[axis] + hi[axis]);
+                    inner += 1;
+                    if left.iter().all(|&id| centroid(id)[axis] < plane)
+                        && right.iter().all(|&id| centroid(id)[axis] >= plane)
+                    {
+                        midpoint += 1;
+                    } else {
+                        // The fallback: halves by count along the same axis.
+                        assert!(left.len().abs_diff(right.len()) <= 1);
+                    }
+                    stack.extend(children.iter());
+                }
+            }
+        }
+        assert!(
+            midpoint * 10 >= inner * 9,
+            "{midpoint} of {inner} splits at the midpoint"
+        );
     }
 
     /// Leaves of `node` as (bounds, primitive ids), left to right.

@@ -231,14 +231,7 @@ impl Bvh {
                 max_leaf: 8,
                 top_slots: WIDTH,
             },
-            _ => BuildParams {
-                sah: false,
-                bins: 0,
-                traversal_cost: 0.0,
-                lanes: 1,
-                max_leaf: 4,
-                top_slots: 0,
-            },
+            _ => BuildParams::MIDPOINT,
         };
         let (root, order) = build::build(&bounds, tri_count as u32, params);
         let flat = flatten::flatten(root.as_ref(), &order, geometry);
