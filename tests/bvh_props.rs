@@ -581,3 +581,158 @@ fn real_meshes() {
         assert!(hits > 0, "{name}: no hits at all");
     }
 }
+
+/// What an f64 oracle, independent of wavepath's triangle and sphere code,
+/// says a ray hits: `Some(Some((prim, t)))` for a clear closest hit,
+/// `Some(None)` for a clear miss, `None` when rounding could decide (a hit
+/// within 1e-5 of an edge, of t = 0 or of t_max, a grazed sphere, or two
+/// primitives within a relative 1e-4 of each other along the ray).
+fn oracle(geometry: &Geometry, o: Vec3, d: Vec3, t_max: f32) -> Option<Option<(u32, f64)>> {
+    let (o, d) = (o.as_dvec3(), d.as_dvec3());
+    let t_max = t_max as f64;
+    let scale = d.length();
+    // (t, prim) of clear hits; `unsure` when a candidate is on a boundary.
+    let mut hits: Vec<(f64, u32)> = Vec::new();
+    let mut unsure = false;
+    let mut consider = |t: f64, prim: u32, margin_ok: bool| {
+        let t_margin = 1e-5 * (1.0 + t.abs()) / scale;
+        if t < -t_margin || t > t_max + t_margin {
+            return;
+        }
+        if !margin_ok || t < t_margin || (t_max.is_finite() && t > t_max - t_margin) {
+            unsure = true;
+        } else {
+            hits.push((t, prim));
+        }
+    };
+    let tris = &geometry.triangles;
+    for (k, idx) in tris.indices.iter().enumerate() {
+        let [a, b, c] = idx.map(|i| tris.positions[i as usize].as_dvec3());
+        let (e1, e2) = (b - a, c - a);
+        let p = d.cross(e2);
+        let det = e1.dot(p);
+        if det.abs() < 1e-9 * e1.length() * e2.length() * scale {
+            continue; // parallel to the plane: no hit, and none near
+        }
+        let s = o - a;
+        let u = s.dot(p) / det;
+        let q = s.cross(e1);
+        let v = d.dot(q) / det;
+        let t = e2.dot(q) / det;
+        let w = 1.0 - u - v;
+        let inside = u.min(v).min(w);
+        if inside < -1e-5 {
+            continue;
+        }
+        consider(t, k as u32, inside > 1e-5);
+    }
+    let spheres = &geometry.spheres;
+    for k in 0..spheres.center.len() {
+        let (c, r) = (spheres.center[k].as_dvec3(), spheres.radius[k] as f64);
+        let oc = o - c;
+        let (a, b, cc) = (d.dot(d), oc.dot(d), oc.dot(oc) - r * r);
+        let disc = b * b - a * cc;
+        if disc < -1e-6 * b * b {
+            continue;
+        }
+        let root = disc.max(0.0).sqrt();
+        let prim = (tris.indices.len() + k) as u32;
+        let clear = disc > 1e-6 * b * b;
+        for t in [(-b - root) / a, (-b + root) / a] {
+            consider(t, prim, clear);
+        }
+    }
+    hits.sort_by(|x, y| x.0.total_cmp(&y.0));
+    // The nearest candidate of each sphere is its entry (or, inside, its exit).
+    let first = hits.first().copied();
+    if let Some((t, prim)) = first {
+        let tie = hits
+            .iter()
+            .any(|&(u, p)| p != prim && u <= t * (1.0 + 1e-4) + 1e-9);
+        if unsure || tie {
+            return None;
+        }
+        return Some(Some((prim, t)));
+    }
+    if unsure { None } else { Some(None) }
+}
+
+/// Every structure against the f64 oracle on random soups of triangles and
+/// spheres: the same primitive and t within 1e-4 (relative) for closest
+/// hits, and any-hit agreeing, on every ray the oracle is sure about. The
+/// other tests compare the structures with `Accel::None`, which shares the
+/// per-primitive arithmetic; this one shares nothing with it.
+#[test]
+fn every_structure_agrees_with_an_independent_f64_oracle() {
+    let mut rng = Rng(0x1234_5678);
+    let (mut sure, mut hit) = (0usize, 0usize);
+    for round in 0..6 {
+        let tris: Vec<(Vec3, Vec3, Vec3)> = (0..400)
+            .map(|_| {
+                let a = rng.vec3() * 10.0;
+                let size = if round % 2 == 0 { 5.0 } else { 2.0 };
+                (a, (rng.vec3() - 0.5) * size, (rng.vec3() - 0.5) * size)
+            })
+            .collect();
+        let spheres: Vec<(Vec3, f32)> = (0..25)
+            .map(|_| (rng.vec3() * 10.0, 0.1 + rng.next() * 1.2))
+            .collect();
+        let g = soup(tris, spheres);
+        let mut rays = Rays::default();
+        for i in 0..4000 {
+            let o = rng.vec3() * 14.0 - 2.0;
+            let d = rng.vec3() - 0.5;
+            let t_max = if i % 3 == 0 {
+                rng.next() * 8.0
+            } else {
+                f32::INFINITY
+            };
+            rays.push(o, d * (0.5 + rng.next() * 4.0), t_max);
+        }
+        for accel in [Accel::None, Accel::Median, Accel::Sah] {
+            let bvh = Bvh::build(&g, accel);
+            let (mut hits, mut occ) = (Hits::default(), Vec::new());
+            let mut stats = TraversalStats::default();
+            bvh.intersect(&rays, &mut hits, &mut stats, None);
+            bvh.occluded(&rays, &mut occ, &mut stats);
+            #[allow(clippy::needless_range_loop)] // i indexes the rays and both results
+            for i in 0..rays.len() {
+                let (o, d) = (rays.origin(i), rays.direction(i));
+                let Some(expected) = oracle(&g, o, d, rays.t_max[i]) else {
+                    continue;
+                };
+                if accel == Accel::Sah {
+                    sure += 1;
+                    hit += usize::from(expected.is_some());
+                }
+                let what = format!(
+                    "{accel}, round {round}, ray {i} ({o} + t {d}, t_max {})",
+                    rays.t_max[i]
+                );
+                match expected {
+                    None => assert!(
+                        hits.prim[i] == NO_HIT && !occ[i],
+                        "{what}: hit prim {} at {}, occluded {}, the oracle sees nothing",
+                        hits.prim[i],
+                        hits.t[i],
+                        occ[i]
+                    ),
+                    Some((prim, t)) => {
+                        assert_eq!(
+                            hits.prim[i], prim,
+                            "{what}: t {} vs the oracle's {t}",
+                            hits.t[i]
+                        );
+                        let rel = (hits.t[i] as f64 - t).abs() / t.max(1e-30);
+                        assert!(rel <= 1e-4, "{what}: t {} vs {t}", hits.t[i]);
+                        assert!(occ[i], "{what}: not occluded");
+                    }
+                }
+            }
+        }
+    }
+    eprintln!("{sure} rays decided by the oracle, {hit} of them hits");
+    // Most rays are decided, and both outcomes are well represented.
+    assert!(sure > 6 * 4000 * 9 / 10, "only {sure} rays decided");
+    assert!(hit > sure / 5 && hit < sure * 4 / 5, "{hit} of {sure} hit");
+}
