@@ -46,7 +46,7 @@ use criterion::{BenchmarkId, Criterion, Throughput};
 use glam::Vec3;
 use rayon::prelude::*;
 use wavepath::bvh::{Accel, Bvh, TraversalStats};
-use wavepath::ray::{Hits, NO_HIT, Rays, gamma, offset_by};
+use wavepath::ray::{Hits, NO_HIT, Rays, offset_from_surface};
 use wavepath::scene::{Camera, Geometry, Light, Perspective, Spheres, Triangles};
 
 const WIDTH: u32 = 1024;
@@ -213,11 +213,9 @@ fn ray_sets(w: &Workload, bvh: &Bvh) -> Vec<RaySet> {
     }));
 
     // Primary hit points with their geometric normals facing the camera,
-    // and how far to move a ray's origin off the surface: the error bound
-    // of the triangle test for a ray starting at p grows with the distance
-    // to the hit triangle's farthest vertex (γ₈ of it, as the renderer
-    // computes it), which on a large floor is far more than p's own
-    // rounding. (With `offset_origin`'s bound, 1.5% of CBbunny's diffuse
+    // moved off the surface by the triangle test's error bound, which
+    // grows with the distance to the hit triangle's farthest vertex. (With
+    // a bound from p's own coordinates only, 1.5% of CBbunny's diffuse
     // rays started within the floor's error and hit it again at t = 0.)
     let mut surface = Vec::new();
     for rays in &primary {
@@ -247,8 +245,7 @@ fn ray_sets(w: &Workload, bvh: &Bvh) -> Vec<RaySet> {
             if n.dot(d) > 0.0 {
                 n = -n;
             }
-            let err = gamma(8) * (p.abs().max_element() + reach);
-            surface.push((offset_by(p, n, err), n));
+            surface.push((offset_from_surface(p, n, reach), n));
         }
     }
 

@@ -15,7 +15,7 @@ pub const NO_HIT: u32 = u32::MAX;
 /// A batch of rays, one array per component.
 ///
 /// A ray is `origin + t * direction` for `t` in `[0, t_max]`; callers offset
-/// origins away from surfaces themselves (see [`offset_origin`]),
+/// origins away from surfaces themselves (see [`offset_from_surface`]),
 /// so there is no `t_min`. Directions need not be normalised.
 #[derive(Clone, Debug, Default)]
 pub struct Rays {
@@ -211,13 +211,17 @@ pub fn offset_by_x8(p: Vec3x8, n: Vec3x8, err: f32x8) -> Vec3x8 {
     Vec3x8::new(away(moved.x, n.x), away(moved.y, n.y), away(moved.z, n.z))
 }
 
-/// [`offset_by`] for a point known to within a few ULPs of its own
-/// coordinates, tested against primitives no larger than its distance
-/// from the origin (`err` = γ₈·max|pᵢ|). The renderer's stages know more
-/// about their points and call [`offset_by`] directly.
+/// [`offset_by`] for a point `p` on a primitive, known to within a few
+/// ULPs of its own coordinates: `reach` is the largest coordinate
+/// difference between `p` and the primitive's farthest point (for a
+/// triangle, max over its vertices v of max|vᵢ − pᵢ|), and `err` =
+/// γ₈·(max|pᵢ| + reach). The reach matters: a point near the middle of a
+/// large floor needs an offset set by the floor's size, not by its own
+/// coordinates. For outside tools that trace batches; the renderer's
+/// stages know more about their points and call [`offset_by`] directly.
 #[inline]
-pub fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
-    offset_by(p, n, gamma(8) * p.abs().max_element())
+pub fn offset_from_surface(p: Vec3, n: Vec3, reach: f32) -> Vec3 {
+    offset_by(p, n, gamma(8) * (p.abs().max_element() + reach))
 }
 
 #[cfg(test)]

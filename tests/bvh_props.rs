@@ -11,7 +11,7 @@ use std::path::Path;
 use glam::Vec3;
 use proptest::prelude::*;
 use wavepath::bvh::{Accel, Bvh, TraversalStats};
-use wavepath::ray::{Hits, NO_HIT, Rays};
+use wavepath::ray::{Hits, NO_HIT, Rays, offset_from_surface};
 use wavepath::scene::{Geometry, Spheres, Triangles};
 
 const ACCELS: [Accel; 2] = [Accel::Sah, Accel::Median];
@@ -735,4 +735,47 @@ fn every_structure_agrees_with_an_independent_f64_oracle() {
     // Most rays are decided, and both outcomes are well represented.
     assert!(sure > 6 * 4000 * 9 / 10, "only {sure} rays decided");
     assert!(hit > sure / 5 && hit < sure * 4 / 5, "{hit} of {sure} hit");
+}
+
+/// Rays leaving a large tilted floor from points near the origin, moved
+/// off it by `offset_from_surface` with the floor triangle's reach, never
+/// hit the floor again, at any scale: the bound follows the triangle's
+/// size, not the point's coordinates (which alone leave a share of such
+/// rays inside the floor's error band).
+#[test]
+fn rays_offset_from_a_surface_by_its_reach_leave_it() {
+    let mut rng = Rng(0x0bad_5eed);
+    let n = Vec3::new(0.13, 1.0, -0.07).normalize();
+    let (u, v) = n.any_orthonormal_pair();
+    for scale in [1e-3f32, 1.0, 1e3, 1e5] {
+        let s = 100.0 * scale;
+        let corners = [(-s, -s), (s, -s), (s, s), (-s, s)].map(|(a, b)| a * u + b * v);
+        let g = geometry(corners.to_vec(), vec![[0, 1, 2], [0, 2, 3]], Vec::new());
+        let bvh = Bvh::build(&g, Accel::Sah);
+        let mut rays = Rays::default();
+        for _ in 0..20_000 {
+            // On the plane near its middle (rounded to f32 once), where
+            // p's own coordinates are small next to the floor's size.
+            let (a, b) = (rng.next() as f64 - 0.5, rng.next() as f64 - 0.5);
+            let p = ((a * u.as_dvec3() + b * v.as_dvec3()) * scale as f64).as_vec3();
+            let reach = corners
+                .iter()
+                .map(|&c| (c - p).abs().max_element())
+                .fold(0.0, f32::max);
+            let o = offset_from_surface(p, n, reach);
+            // Grazing: nearly along the floor, slightly up.
+            let along = (rng.next() - 0.5) * u + (rng.next() - 0.5) * v;
+            let d = along + n * (rng.next() * 1e-3 + 1e-6);
+            rays.push(o, d, f32::INFINITY);
+        }
+        let (mut hits, mut occ) = (Hits::default(), Vec::new());
+        bvh.intersect(&rays, &mut hits, &mut TraversalStats::default(), None);
+        bvh.occluded(&rays, &mut occ, &mut TraversalStats::default());
+        let again = hits.prim.iter().filter(|&&p| p != NO_HIT).count();
+        assert_eq!(
+            again, 0,
+            "scale {scale}: {again} rays hit the floor they left"
+        );
+        assert!(occ.iter().all(|&o| !o), "scale {scale}");
+    }
 }
