@@ -26,6 +26,22 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// Writes `text` as the scene `<name>.dae` and renders it with `args` at
+/// 400×300 (a W×H render is the central crop of the 800×600 view, and at
+/// this size it takes in the minimal fixture's objects) to `<name>.exr`.
+/// The run must succeed; returns the output image's path and stderr.
+fn render_text(name: &str, text: &str, args: &[&str]) -> (PathBuf, String) {
+    let scene = scratch(&format!("{name}.dae"));
+    std::fs::write(&scene, text).unwrap();
+    let out = scratch(&format!("{name}.exr"));
+    let mut all = args.to_vec();
+    all.extend_from_slice(&["-r", "400", "300", "-f"]);
+    all.extend_from_slice(&[out.to_str().unwrap(), scene.to_str().unwrap()]);
+    let o = wavepath(&all);
+    assert!(o.status.success(), "{name}: {}", stderr(&o));
+    (out, stderr(&o))
+}
+
 #[test]
 fn renders_the_shipped_scene_to_png_and_exr() {
     let png = scratch("cornell.png");
@@ -384,24 +400,7 @@ fn a_scene_without_light_warns_once_and_renders_black() {
         ("unlit-m0", unlit.as_str(), "0", None),
     ];
     for (name, text, depth, says) in cases {
-        let scene = scratch(&format!("{name}.dae"));
-        std::fs::write(&scene, text).unwrap();
-        let out = scratch(&format!("{name}.exr"));
-        let o = wavepath(&[
-            "-q",
-            "-s",
-            "2",
-            "-m",
-            depth,
-            "-r",
-            "400",
-            "300",
-            "-f",
-            out.to_str().unwrap(),
-            scene.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{name}: {}", stderr(&o));
-        let err = stderr(&o);
+        let (out, err) = render_text(name, text, &["-q", "-s", "2", "-m", depth]);
         let warnings: Vec<&str> = err
             .lines()
             .filter(|l| l.contains("only emission seen directly"))
@@ -508,25 +507,7 @@ fn stats_count_each_stage_and_idle_stages_are_skipped() {
     let lit = include_str!("fixtures/minimal.dae");
     let unlit = lit.replace("<instance_light url=\"#lamp\"/>", "");
     for (name, text, shadows) in [("stages-lit", lit, true), ("stages-unlit", &unlit, false)] {
-        let scene = scratch(&format!("{name}.dae"));
-        std::fs::write(&scene, text).unwrap();
-        // -r 400 300: the central crop takes in the objects.
-        let o = wavepath(&[
-            "-q",
-            "--stats",
-            "-s",
-            "1",
-            "-m",
-            "2",
-            "-r",
-            "400",
-            "300",
-            "-f",
-            out.to_str().unwrap(),
-            scene.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
-        let err = stderr(&o);
+        let (_, err) = render_text(name, text, &["-q", "--stats", "-s", "1", "-m", "2"]);
         assert_eq!(
             stage_items(&err, "shadow-test").is_some(),
             shadows,
@@ -626,29 +607,11 @@ fn unrendered_materials_warn_once_per_kind() {
         text.contains("fx3") && text.contains("ball-sym\" target=\"#mat\""),
         "the fixture changed"
     );
-    let out = scratch("fallbacks.png");
     // The sphere as the second mirror, then as glass.
     for (sphere, glass_warnings) in [("#mat2", 0), ("#mat3", 1)] {
-        let scene = scratch("fallbacks.dae");
         let bound = format!("ball-sym\" target=\"{sphere}\"");
-        std::fs::write(
-            &scene,
-            text.replacen("ball-sym\" target=\"#mat\"", &bound, 1),
-        )
-        .unwrap();
-        let o = wavepath(&[
-            "-q",
-            "-s",
-            "1",
-            "-r",
-            "40",
-            "30",
-            "-f",
-            out.to_str().unwrap(),
-            scene.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
-        let err = stderr(&o);
+        let text = text.replacen("ball-sym\" target=\"#mat\"", &bound, 1);
+        let (_, err) = render_text("fallbacks", &text, &["-q", "-s", "1"]);
         let count = |kind: &str| {
             err.lines()
                 .filter(|l| l.starts_with("warning:") && l.contains(&format!("{kind} materials")))

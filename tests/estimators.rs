@@ -60,6 +60,16 @@ fn furnace_bounce(k: u32) -> f64 {
     ALBEDO as f64 * (ALBEDO as f64).powi(k as i32 - 1)
 }
 
+/// What `--bounces` shows at `-m m` of light whose bounce k brings
+/// `bounce(k)` (k ≥ 1; nothing here is seen directly).
+fn shown(bounces: Bounces, m: u32, bounce: impl Fn(u32) -> f64) -> f64 {
+    match bounces {
+        Bounces::Accumulate => (1..=m).map(bounce).sum(),
+        Bounces::Last => bounce(m),
+        Bounces::Indirect => (2..=m).map(bounce).sum(),
+    }
+}
+
 #[test]
 fn furnace_direct_lighting_is_exact() {
     let scene = furnace();
@@ -84,7 +94,7 @@ fn furnace_global_illumination_matches_the_geometric_series() {
         s.integrator.russian_roulette = rr;
         s.integrator.roulette_depth = from;
         let image = render(&scene, &s, 2);
-        let expected: f64 = (1..=m).map(furnace_bounce).sum();
+        let expected = shown(Bounces::Accumulate, m, furnace_bounce);
         let est = channel(&image, 1);
         assert_unbiased(
             &format!("furnace -m {m} roulette {rr} from depth {from}"),
@@ -99,10 +109,8 @@ fn furnace_global_illumination_matches_the_geometric_series() {
 fn furnace_bounce_selection() {
     let scene = furnace();
     let m = 4;
-    for (bounces, expected) in [
-        (Bounces::Last, furnace_bounce(m)),
-        (Bounces::Indirect, (2..=m).map(furnace_bounce).sum::<f64>()),
-    ] {
+    for bounces in [Bounces::Last, Bounces::Indirect] {
+        let expected = shown(bounces, m, furnace_bounce);
         let mut s = settings(24, 18, 32, m);
         s.integrator.bounces = bounces;
         let est = channel(&render(&scene, &s, 2), 1);
@@ -348,7 +356,7 @@ fn sphere_light_matches_the_closed_form() {
 fn adaptive_and_fixed_sampling_agree() {
     let scene = furnace();
     let m = 3;
-    let expected: f64 = (1..=m).map(furnace_bounce).sum();
+    let expected = shown(Bounces::Accumulate, m, furnace_bounce);
     let mut s = settings(24, 18, 256, m);
     s.adaptive = Some(Adaptive {
         samples_per_batch: 16,
@@ -637,11 +645,7 @@ fn furnace_lit_by_an_emitter_it_can_hit_matches_the_series() {
         let mut s = settings(24, 18, 32, m);
         s.integrator.bounces = bounces;
         s.integrator.roulette_depth = from;
-        let expected: f64 = match bounces {
-            Bounces::Accumulate => (1..=m).map(bounce).sum(),
-            Bounces::Last => bounce(m),
-            Bounces::Indirect => (2..=m).map(bounce).sum(),
-        };
+        let expected = shown(bounces, m, bounce);
         let est = channel(&render(&scene, &s, 2), 1);
         assert_unbiased(
             &format!("furnace with an emitter, -m {m} {bounces:?}, roulette from {from}"),

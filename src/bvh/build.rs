@@ -651,14 +651,15 @@ mod tests {
     use super::*;
     use glam::Vec3;
 
-    fn count_leaves(node: &BuildNode, order: &[u32], seen: &mut Vec<u32>) {
+    /// The primitive ids in `node`'s leaves, appended to `seen`.
+    fn leaf_ids(node: &BuildNode, order: &[u32], seen: &mut Vec<u32>) {
         match node {
             BuildNode::Leaf { start, count, .. } => {
                 seen.extend_from_slice(&order[*start as usize..(*start + *count) as usize])
             }
             BuildNode::Inner { children, .. } => {
-                count_leaves(&children[0], order, seen);
-                count_leaves(&children[1], order, seen);
+                leaf_ids(&children[0], order, seen);
+                leaf_ids(&children[1], order, seen);
             }
         }
     }
@@ -685,7 +686,7 @@ mod tests {
             };
             let (root, order) = build(&bounds, 5000, params);
             let mut seen = Vec::new();
-            count_leaves(&root.unwrap(), &order, &mut seen);
+            leaf_ids(&root.unwrap(), &order, &mut seen);
             seen.sort();
             assert_eq!(seen, (0..10_000).collect::<Vec<u32>>());
         }
@@ -715,17 +716,6 @@ mod tests {
             .collect();
         let centroid = |id: u32| bounds[id as usize].center();
         let (root, order) = build(&bounds, bounds.len() as u32, BuildParams::MIDPOINT);
-        fn ids(node: &BuildNode, order: &[u32], out: &mut Vec<u32>) {
-            match node {
-                BuildNode::Leaf { start, count, .. } => {
-                    out.extend_from_slice(&order[*start as usize..(*start + *count) as usize])
-                }
-                BuildNode::Inner { children, .. } => {
-                    ids(&children[0], order, out);
-                    ids(&children[1], order, out);
-                }
-            }
-        }
         let (mut inner, mut midpoint) = (0, 0);
         let mut stack = vec![root.as_ref().unwrap()];
         while let Some(node) = stack.pop() {
@@ -736,8 +726,8 @@ mod tests {
                 } => {
                     assert!(*count > 4, "a node of {count} was split");
                     let (mut left, mut right) = (Vec::new(), Vec::new());
-                    ids(&children[0], &order, &mut left);
-                    ids(&children[1], &order, &mut right);
+                    leaf_ids(&children[0], &order, &mut left);
+                    leaf_ids(&children[1], &order, &mut right);
                     let all = left.iter().chain(&right).map(|&id| centroid(id));
                     let (lo, hi) = all.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| {
                         (lo.min(c), hi.max(c))
@@ -873,7 +863,7 @@ mod tests {
         }
         let (root, order) = build(&bounds, triangles, sah(8));
         let mut seen = Vec::new();
-        count_leaves(root.as_ref().unwrap(), &order, &mut seen);
+        leaf_ids(root.as_ref().unwrap(), &order, &mut seen);
         seen.sort();
         assert_eq!(seen, (0..bounds.len() as u32).collect::<Vec<u32>>());
         let mut found = Vec::new();
