@@ -29,11 +29,12 @@
 //! * `shadow`: from the primary hits to random points on the first area
 //!   light (or a point above the scene), any-hit queries.
 //!
-//! Secondary rays start off the surface by the triangle test's error bound
-//! (γ₈ of the distance to the hit triangle's farthest vertex), as the
-//! renderer's do. With the `embree` feature, each set is first traced once
-//! by both engines and their answers compared (at most one ray in 500 may
-//! differ; the count is printed), so the rates are for the same work.
+//! Secondary rays start off the surface by γ₈ of the hit point's
+//! magnitude plus its distance to the hit triangle's farthest vertex and
+//! to the camera (`ray::offset_from_surface`). With the `embree` feature,
+//! each set of a triangle-only scene is first traced once by both engines
+//! and their answers compared (at most one ray in 10,000 may differ; the
+//! count is printed), so the rates are for the same work.
 //!
 //! Each set is traced in batches of 4096 rays, one batch per rayon task, on
 //! a 1-thread pool and on the default (all cores) pool. Throughput is
@@ -213,10 +214,11 @@ fn ray_sets(w: &Workload, bvh: &Bvh) -> Vec<RaySet> {
     }));
 
     // Primary hit points with their geometric normals facing the camera,
-    // moved off the surface by the triangle test's error bound, which
-    // grows with the distance to the hit triangle's farthest vertex. (With
-    // a bound from p's own coordinates only, 1.5% of CBbunny's diffuse
-    // rays started within the floor's error and hit it again at t = 0.)
+    // moved off the surface by an error bound that grows with the distance
+    // to the hit triangle's farthest vertex (the triangle test's rounding)
+    // and to the camera (the rounding of o + t·d). (With a bound from p's
+    // own coordinates only, 1.5% of CBbunny's diffuse rays started within
+    // the floor's error and hit it again at t = 0.)
     let mut surface = Vec::new();
     for rays in &primary {
         let mut hits = Hits::default();
@@ -245,7 +247,10 @@ fn ray_sets(w: &Workload, bvh: &Bvh) -> Vec<RaySet> {
             if n.dot(d) > 0.0 {
                 n = -n;
             }
-            surface.push((offset_from_surface(p, n, reach), n));
+            // p = o + t·d also carries the rounding of t·d, which grows
+            // with the distance from the camera: counted with the reach.
+            let travelled = (hits.t[i] * d).abs().max_element();
+            surface.push((offset_from_surface(p, n, reach + travelled), n));
         }
     }
 
@@ -331,14 +336,19 @@ fn trace_embree(scene: &embree::Scene, set: &RaySet, mode: embree::Mode, hits: &
 /// Embree mode. Hit or miss (occluded or not) must agree, and a hit must be
 /// on the same primitive or, where a ray meets a shared edge and the two
 /// pick different sides, at the same `t` (within 1e-4 relative, 1e-6
-/// absolute). Some rays may differ without either engine being wrong:
-/// Embree's triangle test is not watertight (a ray through an edge may
-/// slip past it), and a ray that starts on a face coinciding with another
-/// (building's zero-thickness walls) hits that face at t = 0 in wavepath,
-/// whose interval [0, t_max] is closed, and not in Embree. At most one ray
-/// in 500 may disagree; the count is printed.
+/// absolute). A ray through an edge may still differ, as Embree's
+/// triangle test is not watertight; at most one ray in 10,000 may
+/// disagree, and the count is printed. (Before the secondary rays'
+/// offsets counted the distance from the camera, up to 0.16% of a set
+/// did: rays starting inside a surface's error band, which wavepath,
+/// whose interval [0, t_max] is closed, hit again at t = 0.)
 #[cfg(feature = "embree")]
-fn check_agreement(bvh: &Bvh, escene: &embree::Scene, set: &RaySet) {
+fn check_agreement(bvh: &Bvh, escene: &embree::Scene, set: &RaySet, geometry: &Geometry) {
+    if !geometry.spheres.center.is_empty() {
+        // Embree is given the triangles only.
+        println!("   {} rays: not compared (the scene has spheres)", set.kind);
+        return;
+    }
     let mut total = 0usize;
     for mode in [
         embree::Mode::Single,
@@ -369,7 +379,7 @@ fn check_agreement(bvh: &Bvh, escene: &embree::Scene, set: &RaySet) {
         }
         total += differ;
         assert!(
-            differ * 500 <= set.len(),
+            differ * 10_000 <= set.len(),
             "{} rays: wavepath and Embree ({}) disagree on {differ} of {}",
             set.kind,
             mode.name(),
@@ -453,7 +463,7 @@ fn bench_workload(c: &mut Criterion, w: &Workload) {
         let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
         let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
         #[cfg(feature = "embree")]
-        check_agreement(&bvh, &escene, set);
+        check_agreement(&bvh, &escene, set, &w.geometry);
         let mut group = c.benchmark_group(format!("trace/{}/{}", w.name, set.kind));
         group
             .sample_size(10)
@@ -606,7 +616,7 @@ fn quick(w: &Workload) {
         let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
         let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
         #[cfg(feature = "embree")]
-        check_agreement(&bvh, &escene, set);
+        check_agreement(&bvh, &escene, set, &w.geometry);
         let n = set.len() as f64 * 1e-6;
         let mut row = format!("  {:8} {:7} rays", set.kind, set.len());
         let (c1, _) = best_of(3, || {

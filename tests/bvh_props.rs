@@ -593,7 +593,7 @@ fn oracle(geometry: &Geometry, o: Vec3, d: Vec3, t_max: f32) -> Option<Option<(u
     let scale = d.length();
     // (t, prim) of clear hits; `unsure` when a candidate is on a boundary.
     let mut hits: Vec<(f64, u32)> = Vec::new();
-    let mut unsure = false;
+    let (mut unsure, mut in_plane) = (false, false);
     let mut consider = |t: f64, prim: u32, margin_ok: bool| {
         let t_margin = 1e-5 * (1.0 + t.abs()) / scale;
         if t < -t_margin || t > t_max + t_margin {
@@ -612,7 +612,10 @@ fn oracle(geometry: &Geometry, o: Vec3, d: Vec3, t_max: f32) -> Option<Option<(u
         let p = d.cross(e2);
         let det = e1.dot(p);
         if det.abs() < 1e-9 * e1.length() * e2.length() * scale {
-            continue; // parallel to the plane: no hit, and none near
+            // Parallel to the plane: a miss, unless the ray runs in it.
+            let n = e1.cross(e2).normalize();
+            in_plane |= (o - a).dot(n).abs() < 1e-5 * (1.0 + (o - a).length());
+            continue;
         }
         let s = o - a;
         let u = s.dot(p) / det;
@@ -642,6 +645,7 @@ fn oracle(geometry: &Geometry, o: Vec3, d: Vec3, t_max: f32) -> Option<Option<(u
             consider(t, prim, clear);
         }
     }
+    unsure |= in_plane;
     hits.sort_by(|x, y| x.0.total_cmp(&y.0));
     // The nearest candidate of each sphere is its entry (or, inside, its exit).
     let first = hits.first().copied();

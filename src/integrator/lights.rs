@@ -415,6 +415,9 @@ pub struct LightSet {
     pub sources: Vec<LightSource>,
     /// Summed radiance of hemisphere lights, seen by rays that escape upward.
     pub sky: Vec3,
+    /// The scene's lights of colour 0, left out of `sources`. Uniform
+    /// hemisphere sampling still counts them: its N is lights × `-l`.
+    pub dark: usize,
 }
 
 impl LightSet {
@@ -428,6 +431,7 @@ impl LightSet {
         };
         // A light of colour 0 would only cost shadow rays (an area light's
         // rectangle stays in the geometry all the same).
+        set.dark = scene.lights.iter().filter(|light| !light.emits()).count();
         for light in scene.lights.iter().filter(|light| light.emits()) {
             set.sources.push(match *light {
                 Light::Point {

@@ -57,9 +57,11 @@ fn vertex_blocks<'a>(inputs: &ShadeInputs<'a>) -> impl Iterator<Item = u32> + 'a
     std::iter::once(1).chain(probes).chain(lights)
 }
 
-/// Probe rays per vertex with `-H`: `-l` per light, and `-l` when there is none.
+/// Probe rays per vertex with `-H`: `-l` per light (dark ones included,
+/// as the reference counts them), and `-l` when there is none.
 fn hemisphere_probes(inputs: &ShadeInputs) -> u32 {
-    inputs.lights.sources.len().max(1) as u32 * inputs.settings.light_samples
+    let lights = &inputs.lights;
+    (lights.sources.len() + lights.dark).max(1) as u32 * inputs.settings.light_samples
 }
 
 /// Block of [`vertex_blocks`] that samples the BSDF.
