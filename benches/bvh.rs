@@ -36,8 +36,9 @@
 //! and their answers compared (at most one ray in 10,000 may differ; the
 //! count is printed), so the rates are for the same work.
 //!
-//! Each set is traced in batches of 4096 rays, one batch per rayon task, on
-//! a 1-thread pool and on the default (all cores) pool. Throughput is
+//! Each set is traced in batches of 4096 rays (`BVH_BENCH_BATCH=N` to
+//! change), one batch per rayon task, on a 1-thread pool and on the
+//! default (all cores) pool. Throughput is
 //! reported by criterion in elements (rays) per second.
 
 use std::path::{Path, PathBuf};
@@ -52,7 +53,14 @@ use wavepath::scene::{Camera, Geometry, Light, Perspective, Spheres, Triangles};
 
 const WIDTH: u32 = 1024;
 const HEIGHT: u32 = 768;
-const BATCH: usize = 4096;
+/// Rays per batch (one rayon task each): `BVH_BENCH_BATCH`, default 4096.
+fn batch_size() -> usize {
+    std::env::var("BVH_BENCH_BATCH")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .filter(|&n| n > 0)
+        .unwrap_or(4096)
+}
 
 /// A scene prepared for tracing.
 struct Workload {
@@ -189,10 +197,11 @@ impl Rng {
 }
 
 fn batches(rays: impl Iterator<Item = (Vec3, Vec3, f32)>) -> Vec<Rays> {
-    let mut out = vec![Rays::with_capacity(BATCH)];
+    let batch = batch_size();
+    let mut out = vec![Rays::with_capacity(batch)];
     for (o, d, t) in rays {
-        if out.last().unwrap().len() == BATCH {
-            out.push(Rays::with_capacity(BATCH));
+        if out.last().unwrap().len() == batch {
+            out.push(Rays::with_capacity(batch));
         }
         out.last_mut().unwrap().push(o, d, t);
     }
