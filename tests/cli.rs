@@ -721,3 +721,55 @@ fn every_accel_mode_renders_the_same_image() {
         .collect();
     assert!(files[0] == files[1] && files[1] == files[2]);
 }
+
+/// `-p X Y DX DY` renders the reference's cell: columns X..X+DX and rows
+/// Y..Y+DY counted from the bottom, written as a DX×DY image whose pixels
+/// are bit for bit those of the same pixels in a whole render (each pixel
+/// draws the same random numbers either way). A cell that does not fit
+/// the image is refused, naming it.
+#[test]
+fn region_renders_the_cell_as_the_whole_image_has_it() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    let render = |name: &str, extra: &[&str]| -> Output {
+        let out = scratch(name);
+        let mut args = vec![
+            "-q", "-s", "8", "-m", "3", "-a", "4", "0.2", "-r", "64", "48",
+        ];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["-f", out.to_str().unwrap(), scene]);
+        wavepath(&args)
+    };
+    let o = render("region-whole.exr", &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = render("region-cell.exr", &["-p", "10", "5", "20", "12"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let whole = read_image(&scratch_path("region-whole.exr")).unwrap();
+    let cell = read_image(&scratch_path("region-cell.exr")).unwrap();
+    assert_eq!((cell.width, cell.height), (20, 12));
+    // Rows 5..17 from the bottom of 48 are rows 31..43 from the top.
+    for y in 0..12 {
+        for x in 0..20 {
+            let (i, j) = ((y * 20 + x) as usize, ((31 + y) * 64 + 10 + x) as usize);
+            assert_eq!(
+                cell.pixels[i].to_array(),
+                whole.pixels[j].to_array(),
+                "({x}, {y})"
+            );
+            assert_eq!(cell.samples[i], whole.samples[j], "({x}, {y})");
+        }
+    }
+    let rate = image::open(scratch_path("region-cell_rate.png")).unwrap();
+    assert_eq!((rate.width(), rate.height()), (20, 12));
+
+    for bad in [
+        ["60", "5", "20", "12"],
+        ["0", "40", "4", "9"],
+        ["1", "1", "0", "3"],
+    ] {
+        let o = render("region-bad.exr", &["-p", bad[0], bad[1], bad[2], bad[3]]);
+        assert_eq!(o.status.code(), Some(2), "-p {bad:?}");
+        let err = stderr(&o);
+        assert!(err.contains(&format!("-p {}", bad.join(" "))), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}

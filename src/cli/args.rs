@@ -91,7 +91,7 @@ pub struct Args {
     #[arg(short = 'c', long = "camera", value_name = "FILE")]
     pub camera: Option<PathBuf>,
 
-    /// Render only a sub-rectangle (not supported)
+    /// Render only the cell of columns X..X+DX and rows Y..Y+DY (counted from the bottom, as in the CS184 renderer) and write it as a DX×DY image
     #[arg(short = 'p', long = "region", num_args = 4, value_names = ["X", "Y", "DX", "DY"])]
     pub region: Option<Vec<u32>>,
 

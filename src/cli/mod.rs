@@ -35,7 +35,7 @@ pub use args::Args;
 
 use crate::bvh::Bvh;
 use crate::film::adaptive::Adaptive;
-use crate::film::output;
+use crate::film::{Tile, output};
 use crate::integrator::{Settings, View};
 use crate::scene::collada;
 use crate::wavefront::{RenderSettings, Renderer};
@@ -110,12 +110,13 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
             c.display()
         ));
     }
-    if args.region.is_some() {
-        fail("-p: rendering a sub-rectangle is not supported yet; render the whole image".into());
-    }
     if let Err(e) = check_pixel_count(&args.resolution) {
         fail(e);
     }
+    let region = args
+        .region
+        .as_deref()
+        .map(|r| region(r, args.resolution[0], args.resolution[1]).unwrap_or_else(|e| fail(e)));
     if let Some(e) = &args.envmap {
         fail(format!(
             "-e {}: environment maps are not supported yet",
@@ -164,8 +165,35 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
             russian_roulette: !args.no_roulette,
             roulette_depth: args.roulette_depth,
         },
+        region,
     };
     (settings, output)
+}
+
+/// `-p X Y DX DY` as the reference reads it: the cell of columns X..X+DX
+/// and rows Y..Y+DY counted from the bottom of the `width × height` image,
+/// as a tile in image coordinates (row 0 at the top).
+fn region(r: &[u32], width: u32, height: u32) -> std::result::Result<Tile, String> {
+    let (x, y, dx, dy) = (r[0] as u64, r[1] as u64, r[2] as u64, r[3] as u64);
+    if dx == 0 || dy == 0 {
+        return Err(format!(
+            "-p {x} {y} {dx} {dy}: the cell must be at least 1×1 pixels"
+        ));
+    }
+    if x + dx > width as u64 || y + dy > height as u64 {
+        return Err(format!(
+            "-p {x} {y} {dx} {dy}: the cell reaches past the {width}×{height} image \
+             (columns {x}..{}, rows {y}..{} from the bottom)",
+            x + dx,
+            y + dy
+        ));
+    }
+    Ok(Tile {
+        x0: x as u32,
+        y0: (height as u64 - y - dy) as u32,
+        width: dx as u32,
+        height: dy as u32,
+    })
 }
 
 /// Whether stdout failed, and how: `None` for a reader that went away.
@@ -282,7 +310,10 @@ pub fn run() -> Result<i32> {
     // Ctrl-C stops the render between passes; what is done is still written.
     let cancel = cancel_on_ctrl_c();
 
-    let total_pixels = settings.width as u64 * settings.height as u64;
+    let area = settings
+        .region
+        .unwrap_or(Tile::whole(settings.width, settings.height));
+    let total_pixels = area.pixel_count() as u64;
     let bar = if chatty && std::io::stderr().is_terminal() {
         let bar = ProgressBar::new(total_pixels);
         bar.set_style(

@@ -27,16 +27,27 @@ impl Tile {
         (self.width * self.height) as usize
     }
 
-    /// Splits a `width × height` image into tiles of at most `size × size`, row-major.
-    pub fn grid(width: u32, height: u32, size: u32) -> Vec<Tile> {
+    /// The whole of a `width × height` image.
+    pub fn whole(width: u32, height: u32) -> Tile {
+        Tile {
+            x0: 0,
+            y0: 0,
+            width,
+            height,
+        }
+    }
+
+    /// Splits the rectangle into tiles of at most `size × size`, row-major.
+    pub fn split(&self, size: u32) -> Vec<Tile> {
+        let (x_end, y_end) = (self.x0 + self.width, self.y0 + self.height);
         let mut tiles = Vec::new();
-        for y0 in (0..height).step_by(size as usize) {
-            for x0 in (0..width).step_by(size as usize) {
+        for y0 in (self.y0..y_end).step_by(size as usize) {
+            for x0 in (self.x0..x_end).step_by(size as usize) {
                 tiles.push(Tile {
                     x0,
                     y0,
-                    width: size.min(width - x0),
-                    height: size.min(height - y0),
+                    width: size.min(x_end - x0),
+                    height: size.min(y_end - y0),
                 });
             }
         }
@@ -160,6 +171,33 @@ impl Image {
 
     pub fn at(&self, x: u32, y: u32) -> Vec3 {
         self.pixels[(y * self.width + x) as usize]
+    }
+
+    /// The pixels of `area` (which must lie inside the image) as an image
+    /// of their own.
+    pub fn crop(&self, area: Tile) -> Image {
+        let rows = area.y0 as usize..(area.y0 + area.height) as usize;
+        let cols = area.x0 as usize..(area.x0 + area.width) as usize;
+        let w = self.width as usize;
+        let pick = |v: &[Vec3]| -> Vec<Vec3> {
+            rows.clone()
+                .flat_map(|y| v[y * w + cols.start..y * w + cols.end].iter().copied())
+                .collect()
+        };
+        Image {
+            width: area.width,
+            height: area.height,
+            pixels: pick(&self.pixels),
+            variance: pick(&self.variance),
+            samples: rows
+                .clone()
+                .flat_map(|y| {
+                    self.samples[y * w + cols.start..y * w + cols.end]
+                        .iter()
+                        .copied()
+                })
+                .collect(),
+        }
     }
 }
 

@@ -58,6 +58,9 @@ pub struct RenderSettings {
     pub lens_radius: f32,
     pub focal_distance: f32,
     pub integrator: Settings,
+    /// Render only these pixels of the `width × height` image (`-p`); the
+    /// output is then an image of the region's size.
+    pub region: Option<Tile>,
 }
 
 impl Default for RenderSettings {
@@ -73,6 +76,7 @@ impl Default for RenderSettings {
             lens_radius: 0.0,
             focal_distance: 4.7,
             integrator: Settings::default(),
+            region: None,
         }
     }
 }
@@ -136,7 +140,8 @@ impl<'a> Renderer<'a> {
         on_tile: &(dyn Fn(u64) + Sync),
         cancel: &AtomicBool,
     ) -> RenderOutput {
-        let tiles = Tile::grid(settings.width, settings.height, settings.tile_size);
+        let whole = Tile::whole(settings.width, settings.height);
+        let tiles = settings.region.unwrap_or(whole).split(settings.tile_size);
         let results: Vec<(TileFilm, Stats, bool)> = tiles
             .par_iter()
             .map_init(Scratch::default, |scratch, &tile| {
@@ -165,6 +170,11 @@ impl<'a> Renderer<'a> {
                 p.x /= max;
                 *p = crate::film::output::rate_colour(p.x);
             }
+        }
+        // A region is rendered in place (each pixel draws the numbers it
+        // draws in a whole render, so it gets the same value) and cut out.
+        if let Some(region) = settings.region {
+            image = image.crop(region);
         }
         RenderOutput {
             image,
