@@ -201,7 +201,7 @@ fn nonsense_values_are_refused_with_a_usage_hint() {
         vec!["-f", "out.jpg", scene],
         vec!["--shading", "wireframe", scene],
         vec!["-e", "sky.exr", scene],
-        vec!["-p", "0", "0", "10", "10", scene],
+        vec!["-p", "0", "0", "801", "10", scene],
         vec!["-r", "65536", "65536", scene],
         vec!["--roulette-depth", "-1", scene],
     ] {
