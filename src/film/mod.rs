@@ -176,27 +176,19 @@ impl Image {
     /// The pixels of `area` (which must lie inside the image) as an image
     /// of their own.
     pub fn crop(&self, area: Tile) -> Image {
-        let rows = area.y0 as usize..(area.y0 + area.height) as usize;
-        let cols = area.x0 as usize..(area.x0 + area.width) as usize;
-        let w = self.width as usize;
-        let pick = |v: &[Vec3]| -> Vec<Vec3> {
-            rows.clone()
-                .flat_map(|y| v[y * w + cols.start..y * w + cols.end].iter().copied())
+        fn pick<T: Copy>(v: &[T], width: u32, area: Tile) -> Vec<T> {
+            let (w, x0, dx) = (width as usize, area.x0 as usize, area.width as usize);
+            (area.y0..area.y0 + area.height)
+                .flat_map(|y| &v[y as usize * w + x0..][..dx])
+                .copied()
                 .collect()
-        };
+        }
         Image {
             width: area.width,
             height: area.height,
-            pixels: pick(&self.pixels),
-            variance: pick(&self.variance),
-            samples: rows
-                .clone()
-                .flat_map(|y| {
-                    self.samples[y * w + cols.start..y * w + cols.end]
-                        .iter()
-                        .copied()
-                })
-                .collect(),
+            pixels: pick(&self.pixels, self.width, area),
+            variance: pick(&self.variance, self.width, area),
+            samples: pick(&self.samples, self.width, area),
         }
     }
 }
