@@ -635,20 +635,28 @@ fn furnace_lit_by_an_emitter_it_can_hit_matches_the_series() {
     let s_cap = r * r;
     let rho = ALBEDO as f64;
     let bounce = |k: u32| rho * le * s_cap * (rho * (1.0 - s_cap)).powi(k as i32 - 1);
-    for (m, bounces, from) in [
-        (1, Bounces::Accumulate, 5),
-        (4, Bounces::Accumulate, 5),
-        (9, Bounces::Accumulate, 1),
-        (4, Bounces::Last, 5),
-        (4, Bounces::Indirect, 1),
+    // With -H too: the direct light of every vertex found by hemisphere
+    // probes that hit the emitter, never also by the BSDF rays that do.
+    for (m, bounces, from, hemisphere) in [
+        (1, Bounces::Accumulate, 5, false),
+        (4, Bounces::Accumulate, 5, false),
+        (9, Bounces::Accumulate, 1, false),
+        (4, Bounces::Last, 5, false),
+        (4, Bounces::Indirect, 1, false),
+        (1, Bounces::Accumulate, 5, true),
+        (4, Bounces::Accumulate, 1, true),
     ] {
         let mut s = settings(24, 18, 32, m);
         s.integrator.bounces = bounces;
         s.integrator.roulette_depth = from;
+        s.integrator.hemisphere = hemisphere;
+        s.integrator.light_samples = if hemisphere { 4 } else { 1 };
         let expected = shown(bounces, m, bounce);
         let est = channel(&render(&scene, &s, 2), 1);
         assert_unbiased(
-            &format!("furnace with an emitter, -m {m} {bounces:?}, roulette from {from}"),
+            &format!(
+                "furnace with an emitter, -m {m} {bounces:?}, roulette from {from}, -H {hemisphere}"
+            ),
             &est,
             &vec![expected; est.len()],
             1e-4,
