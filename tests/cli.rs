@@ -773,3 +773,58 @@ fn region_renders_the_cell_as_the_whole_image_has_it() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+/// `-c FILE` takes the view of a CS184 viewer's camera settings file: the
+/// scene's own camera written as such a file renders the same image, byte
+/// for byte; another view renders another; a bad file is refused, naming
+/// it and the value at fault.
+#[test]
+fn camera_settings_files_set_the_view() {
+    use wavepath::scene::camera_file;
+    let scene_path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    let scene = wavepath::scene::collada::load_file(Path::new(scene_path)).unwrap();
+    let render = |name: &str, extra: &[&str]| -> Output {
+        let out = scratch(name);
+        let mut args = vec!["-q", "-s", "2", "-m", "1", "-r", "64", "48"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["-f", out.to_str().unwrap(), scene_path]);
+        wavepath(&args)
+    };
+    let own = scratch("own.cam");
+    std::fs::write(&own, camera_file::write(&scene.camera, 800, 600)).unwrap();
+    let mut moved = scene.camera.clone();
+    moved.position += 0.3 * moved.camera_to_world.col(0);
+    let other = scratch("moved.cam");
+    std::fs::write(&other, camera_file::write(&moved, 800, 600)).unwrap();
+    let mut files = Vec::new();
+    for (name, extra) in [
+        ("cam-none.exr", vec![]),
+        ("cam-own.exr", vec!["-c", own.to_str().unwrap()]),
+        ("cam-moved.exr", vec!["-c", other.to_str().unwrap()]),
+    ] {
+        let o = render(name, &extra);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        files.push(std::fs::read(scratch_path(name)).unwrap());
+    }
+    assert!(
+        files[0] == files[1],
+        "the scene's own camera, as a file, changed the image"
+    );
+    assert!(
+        files[0] != files[2],
+        "a moved camera rendered the same image"
+    );
+
+    let bad = scratch("bad.cam");
+    std::fs::write(&bad, "45 35 1.33 0.1 100\n0 0 nan 0 0 0\n").unwrap();
+    for (file, says) in [(&bad, "found 11"), (&scratch("missing.cam"), "cannot read")] {
+        let o = render("cam-bad.exr", &["-c", file.to_str().unwrap()]);
+        assert!(!o.status.success());
+        let err = stderr(&o);
+        assert!(
+            err.contains(&format!("-c {}", file.display())) && err.contains(says),
+            "{err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}

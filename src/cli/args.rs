@@ -87,7 +87,7 @@ pub struct Args {
     #[arg(long = "roulette-depth", value_name = "N", default_value_t = crate::integrator::ROULETTE_DEPTH)]
     pub roulette_depth: u32,
 
-    /// Camera settings file written by the CS184 viewer (not supported)
+    /// Camera settings file written by the CS184 viewer: its position, orientation, clip planes and screen distance replace the scene's camera (the lens stays with -b and -d)
     #[arg(short = 'c', long = "camera", value_name = "FILE")]
     pub camera: Option<PathBuf>,
 

@@ -37,7 +37,7 @@ use crate::bvh::Bvh;
 use crate::film::adaptive::Adaptive;
 use crate::film::{Tile, output};
 use crate::integrator::{Settings, View};
-use crate::scene::collada;
+use crate::scene::{camera_file, collada};
 use crate::wavefront::{RenderSettings, Renderer};
 
 /// The scene rendered when none is named: `scenes/cornell.dae`, built in.
@@ -102,12 +102,6 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
         fail(format!(
             "-d: focal distance must be a positive number, got {}",
             args.focal_distance
-        ));
-    }
-    if let Some(c) = &args.camera {
-        fail(format!(
-            "-c {}: camera settings files are not supported",
-            c.display()
         ));
     }
     if let Err(e) = check_pixel_count(&args.resolution) {
@@ -247,10 +241,19 @@ fn thread_pool(args: &Args) -> Result<(rayon::ThreadPool, usize)> {
 
 /// The named scene, or the built-in one.
 fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
-    Ok(match &args.scene {
+    let mut scene = match &args.scene {
         Some(path) => collada::load_file(path)?,
         None => collada::load_str(DEFAULT_SCENE, std::path::Path::new(DEFAULT_SCENE_NAME))?,
-    })
+    };
+    // -c: the view of a CS184 viewer's camera settings file replaces the
+    // scene's camera.
+    if let Some(file) = &args.camera {
+        let text = std::fs::read_to_string(file)
+            .map_err(|e| anyhow::anyhow!("-c {}: cannot read: {e}", file.display()))?;
+        scene.camera =
+            camera_file::parse(&text).map_err(|e| anyhow::anyhow!("-c {}: {e}", file.display()))?;
+    }
+    Ok(scene)
 }
 
 /// A flag that Ctrl-C sets. Failing to install the handler only loses the

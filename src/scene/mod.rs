@@ -5,6 +5,7 @@
 //! and nothing else.
 
 pub mod camera;
+pub mod camera_file;
 pub mod collada;
 pub mod geometry;
 pub mod light;
