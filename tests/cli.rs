@@ -203,6 +203,9 @@ fn nonsense_values_are_refused_with_a_usage_hint() {
         vec!["-e", "sky.exr", scene],
         vec!["-p", "0", "0", "801", "10", scene],
         vec!["-r", "65536", "65536", scene],
+        // A list flag given twice, as any flag: an error, not its first list.
+        vec!["-r", "64", "48", "-r", "48", "48", scene],
+        vec!["-a", "4", "0.1", "-a", "8", "0.1", scene],
         vec!["--roulette-depth", "-1", scene],
     ] {
         let o = wavepath(&args);
@@ -774,10 +777,12 @@ fn region_renders_the_cell_as_the_whole_image_has_it() {
     }
 }
 
-/// `-c FILE` takes the view of a CS184 viewer's camera settings file: the
-/// scene's own camera written as such a file renders the same image, byte
-/// for byte; another view renders another; a bad file is refused, naming
-/// it and the value at fault.
+/// `-c FILE` takes the view of a CS184 viewer's camera settings file, with
+/// its vertical field of view whatever `-r` is (as the reference does): the
+/// scene's own camera written as such a file for the render's size renders
+/// the same image; another view renders another; a file of another aspect
+/// ratio is warned about; a bad file is refused, naming it and the value
+/// at fault.
 #[test]
 fn camera_settings_files_set_the_view() {
     use wavepath::scene::camera_file;
@@ -791,11 +796,11 @@ fn camera_settings_files_set_the_view() {
         wavepath(&args)
     };
     let own = scratch("own.cam");
-    std::fs::write(&own, camera_file::write(&scene.camera, 800, 600)).unwrap();
+    std::fs::write(&own, camera_file::write(&scene.camera, 64, 48)).unwrap();
     let mut moved = scene.camera.clone();
     moved.position += 0.3 * moved.camera_to_world.col(0);
     let other = scratch("moved.cam");
-    std::fs::write(&other, camera_file::write(&moved, 800, 600)).unwrap();
+    std::fs::write(&other, camera_file::write(&moved, 64, 48)).unwrap();
     let mut files = Vec::new();
     for (name, extra) in [
         ("cam-none.exr", vec![]),
@@ -804,16 +809,46 @@ fn camera_settings_files_set_the_view() {
     ] {
         let o = render(name, &extra);
         assert!(o.status.success(), "{name}: {}", stderr(&o));
-        files.push(std::fs::read(scratch_path(name)).unwrap());
+        assert!(!stderr(&o).contains("warning"), "{name}: {}", stderr(&o));
+        files.push(read_image(&scratch_path(name)).unwrap());
     }
+    // The field of view goes through degrees in the file, so the rays may
+    // differ in their last bits: the same image to within a trace.
+    let diff = |a: &wavepath::film::Image, b: &wavepath::film::Image| -> f32 {
+        let sum: f32 = a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .map(|(p, q)| (*p - *q).abs().max_element())
+            .sum();
+        sum / a.pixels.len() as f32
+    };
     assert!(
-        files[0] == files[1],
+        diff(&files[0], &files[1]) < 1e-3,
         "the scene's own camera, as a file, changed the image"
     );
     assert!(
-        files[0] != files[2],
+        diff(&files[0], &files[2]) > 1e-2,
         "a moved camera rendered the same image"
     );
+
+    // Written for 800×600 and rendered square: said.
+    let wide = scratch("wide.cam");
+    std::fs::write(&wide, camera_file::write(&scene.camera, 800, 600)).unwrap();
+    let out = scratch("cam-wide.exr");
+    let o = wavepath(&[
+        "-q",
+        "-r",
+        "48",
+        "48",
+        "-c",
+        wide.to_str().unwrap(),
+        "-f",
+        out.to_str().unwrap(),
+        scene_path,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("would stretch"), "{}", stderr(&o));
 
     let bad = scratch("bad.cam");
     std::fs::write(&bad, "45 35 1.33 0.1 100\n0 0 nan 0 0 0\n").unwrap();

@@ -55,14 +55,17 @@ pub struct Args {
     pub output: Option<PathBuf>,
 
     /// Resolution in pixels
+    // `Set`, as for every single-value flag: given twice is an error (a
+    // list flag appends by default, and the first pair was used silently).
     #[arg(short = 'r', long = "resolution", num_args = 2, value_names = ["W", "H"],
+          action = clap::ArgAction::Set,
           default_values_t = [800u32, 600],
           value_parser = clap::value_parser!(u32).range(1..=65536))]
     pub resolution: Vec<u32>,
 
     /// Adaptive sampling: test convergence every SAMPLES_PER_BATCH samples; a pixel stops
     /// when its 95% confidence interval is within TOLERANCE of its mean
-    #[arg(short = 'a', long = "adaptive", num_args = 2,
+    #[arg(short = 'a', long = "adaptive", num_args = 2, action = clap::ArgAction::Set,
           value_names = ["SAMPLES_PER_BATCH", "TOLERANCE"], default_values = ["32", "0.05"],
           allow_negative_numbers = true)]
     pub adaptive: Vec<String>,
@@ -87,12 +90,13 @@ pub struct Args {
     #[arg(long = "roulette-depth", value_name = "N", default_value_t = crate::integrator::ROULETTE_DEPTH)]
     pub roulette_depth: u32,
 
-    /// Camera settings file written by the CS184 viewer: its position, orientation, clip planes and screen distance replace the scene's camera (the lens stays with -b and -d)
+    /// Camera settings file written by the CS184 viewer: its position, orientation, clip planes and vertical field of view replace the scene's camera (the lens stays with -b and -d)
     #[arg(short = 'c', long = "camera", value_name = "FILE")]
     pub camera: Option<PathBuf>,
 
     /// Render only the cell of columns X..X+DX and rows Y..Y+DY (counted from the bottom, as in the CS184 renderer) and write it as a DX×DY image
-    #[arg(short = 'p', long = "region", num_args = 4, value_names = ["X", "Y", "DX", "DY"])]
+    #[arg(short = 'p', long = "region", num_args = 4, value_names = ["X", "Y", "DX", "DY"],
+          action = clap::ArgAction::Set)]
     pub region: Option<Vec<u32>>,
 
     /// Environment map .exr (not supported)

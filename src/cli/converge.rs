@@ -223,6 +223,9 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     }
 
     let (mut settings, _) = super::validate(&args.render);
+    if settings.region.is_some() {
+        bail!("-p: converge measures whole images and does not take a cell");
+    }
     settings.adaptive = None;
     let chatty = !args.render.quiet;
 

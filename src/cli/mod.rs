@@ -250,8 +250,13 @@ fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
     if let Some(file) = &args.camera {
         let text = std::fs::read_to_string(file)
             .map_err(|e| anyhow::anyhow!("-c {}: cannot read: {e}", file.display()))?;
-        scene.camera =
+        let settings =
             camera_file::parse(&text).map_err(|e| anyhow::anyhow!("-c {}: {e}", file.display()))?;
+        let (camera, note) = settings.camera(args.resolution[0], args.resolution[1]);
+        if let Some(note) = note {
+            eprintln!("warning: -c {}: {note}", file.display());
+        }
+        scene.camera = camera;
     }
     Ok(scene)
 }
@@ -313,10 +318,7 @@ pub fn run() -> Result<i32> {
     // Ctrl-C stops the render between passes; what is done is still written.
     let cancel = cancel_on_ctrl_c();
 
-    let area = settings
-        .region
-        .unwrap_or(Tile::whole(settings.width, settings.height));
-    let total_pixels = area.pixel_count() as u64;
+    let total_pixels = settings.area().pixel_count() as u64;
     let bar = if chatty && std::io::stderr().is_terminal() {
         let bar = ProgressBar::new(total_pixels);
         bar.set_style(

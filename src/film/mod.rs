@@ -138,13 +138,15 @@ impl Image {
         }
     }
 
-    /// Copies a finished tile in, dividing sums by sample counts.
-    pub fn store(&mut self, film: &TileFilm) {
+    /// Copies a finished tile in, dividing sums by sample counts. The
+    /// image covers `area` of the frame the tile's coordinates are in.
+    pub fn store(&mut self, film: &TileFilm, area: Tile) {
         let t = film.tile;
+        let (x0, y0) = (t.x0 - area.x0, t.y0 - area.y0);
         for ty in 0..t.height {
             for tx in 0..t.width {
                 let local = (ty * t.width + tx) as usize;
-                let global = ((t.y0 + ty) * self.width + t.x0 + tx) as usize;
+                let global = ((y0 + ty) * self.width + x0 + tx) as usize;
                 let n = film.count[local];
                 let nf = n as f64;
                 let mean = if n > 0 {
@@ -171,25 +173,6 @@ impl Image {
 
     pub fn at(&self, x: u32, y: u32) -> Vec3 {
         self.pixels[(y * self.width + x) as usize]
-    }
-
-    /// The pixels of `area` (which must lie inside the image) as an image
-    /// of their own.
-    pub fn crop(&self, area: Tile) -> Image {
-        fn pick<T: Copy>(v: &[T], width: u32, area: Tile) -> Vec<T> {
-            let (w, x0, dx) = (width as usize, area.x0 as usize, area.width as usize);
-            (area.y0..area.y0 + area.height)
-                .flat_map(|y| &v[y as usize * w + x0..][..dx])
-                .copied()
-                .collect()
-        }
-        Image {
-            width: area.width,
-            height: area.height,
-            pixels: pick(&self.pixels, self.width, area),
-            variance: pick(&self.variance, self.width, area),
-            samples: pick(&self.samples, self.width, area),
-        }
     }
 }
 
@@ -246,7 +229,7 @@ mod tests {
         let mut film = TileFilm::new(tile);
         film.add(0, &[Vec3::splat(3e38); 4]);
         let mut image = Image::new(1, 1);
-        image.store(&film);
+        image.store(&film, tile);
         assert_eq!(image.pixels[0], Vec3::splat(3e38));
         assert_eq!(image.non_finite_count(), 0);
     }

@@ -5,11 +5,13 @@
 //! ratio and clip planes; position and target; the orbit angles and
 //! radius limits; the camera-to-world matrix row by row; the screen size
 //! and distance in pixels; and, in newer files, the focal distance and lens
-//! radius. The view is the position, the matrix, the clip planes and the
-//! screen distance. With `-r W H` the screen distance decides the field of
-//! view, as it does for scene cameras. The fields of view and aspect ratio
-//! follow from the screen. The orbit values only steer the viewer. The
-//! lens stays with `-b` and `-d`.
+//! radius. The reference loads the file after sizing its screen and then
+//! traces with the file's fields of view, whatever `-r` is. wavepath does
+//! the same for the vertical field of view. Its pixels stay square, so
+//! where the file's aspect ratio differs from `-r`'s, the horizontal field
+//! of view follows from `-r` (the reference would stretch the image), and
+//! the caller is told. The orbit values only steer the viewer. The lens
+//! stays with `-b` and `-d`.
 
 use glam::{Mat3, Vec3};
 
@@ -49,8 +51,41 @@ const FIELDS: [&str; 30] = [
     "lens radius",
 ];
 
-/// Reads the camera of a settings file; the error names the value at fault.
-pub fn parse(text: &str) -> Result<Camera, String> {
+/// A camera settings file: the view, and the fields of view it was saved with.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraFile {
+    /// Position, orientation and clip planes; the screen distance is the
+    /// file's, in pixels of the viewer's screen.
+    pub camera: Camera,
+    /// tan(hfov/2) and tan(vfov/2) of the file's fields of view.
+    pub tan_half_fov: (f64, f64),
+}
+
+impl CameraFile {
+    /// The camera for a `width × height` render: the file's vertical field
+    /// of view over `height` pixels. The second value says what differs
+    /// from the reference when the file's aspect ratio is not `width /
+    /// height`.
+    pub fn camera(&self, width: u32, height: u32) -> (Camera, Option<String>) {
+        let (th, tv) = self.tan_half_fov;
+        let camera = Camera {
+            screen_distance: (height as f64 / (2.0 * tv)) as f32,
+            ..self.camera.clone()
+        };
+        let (file, render) = (th / tv, width as f64 / height as f64);
+        let note = ((file / render - 1.0).abs() > 1e-3).then(|| {
+            format!(
+                "its fields of view have aspect {file:.4}, the {width}×{height} render {render:.4}: \
+                 the vertical field of view is kept and the horizontal one follows from -r \
+                 (the CS184 renderer would stretch the image)"
+            )
+        });
+        (camera, note)
+    }
+}
+
+/// Reads a settings file; the error names the value at fault.
+pub fn parse(text: &str) -> Result<CameraFile, String> {
     let words: Vec<&str> = text.split_whitespace().collect();
     if words.len() != 28 && words.len() != 30 {
         return Err(format!(
@@ -72,6 +107,14 @@ pub fn parse(text: &str) -> Result<Camera, String> {
                 ));
             }
         };
+    }
+    for (i, fov) in [(0, v[0]), (1, v[1])] {
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(format!(
+                "{} {fov}: need a field of view between 0 and 180 degrees",
+                FIELDS[i]
+            ));
+        }
     }
     let (near, far) = (v[3], v[4]);
     if !(near >= 0.0 && far > near) {
@@ -95,14 +138,17 @@ pub fn parse(text: &str) -> Result<Camera, String> {
             ));
         }
     }
-    let position = Vec3::new(v[5], v[6], v[7]);
-    Ok(Camera {
-        position,
-        target: Vec3::new(v[8], v[9], v[10]),
-        camera_to_world: Mat3::from_cols(columns[0], columns[1], columns[2]),
-        screen_distance,
-        znear: near,
-        zfar: far,
+    let tan_half = |degrees: f32| (0.5 * (degrees as f64).to_radians()).tan();
+    Ok(CameraFile {
+        camera: Camera {
+            position: Vec3::new(v[5], v[6], v[7]),
+            target: Vec3::new(v[8], v[9], v[10]),
+            camera_to_world: Mat3::from_cols(columns[0], columns[1], columns[2]),
+            screen_distance,
+            znear: near,
+            zfar: far,
+        },
+        tan_half_fov: (tan_half(v[0]), tan_half(v[1])),
     })
 }
 
@@ -111,7 +157,7 @@ pub fn parse(text: &str) -> Result<Camera, String> {
 /// handing a scene's view to the viewer.
 pub fn write(camera: &Camera, width: u32, height: u32) -> String {
     let view = camera.view(width, height);
-    let fov = |t: f32| 2.0 * t.atan().to_degrees();
+    let fov = |t: f32| (2.0 * (t as f64).atan().to_degrees()) as f32;
     let m = camera.camera_to_world;
     let rows: Vec<String> = (0..3)
         .flat_map(|i| (0..3).map(move |j| m.col(j)[i].to_string()))
@@ -156,11 +202,41 @@ mod tests {
     #[test]
     fn a_written_file_reads_back_as_the_same_camera() {
         let c = camera();
-        let back = parse(&write(&c, 800, 600)).unwrap();
-        assert_eq!(back, c);
+        let file = parse(&write(&c, 800, 600)).unwrap();
+        assert_eq!(file.camera, c);
+        // Rendered at the size it was written for, the same screen
+        // distance (to the rounding of the degrees written), no note.
+        let (at, note) = file.camera(800, 600);
+        assert!((at.screen_distance / c.screen_distance - 1.0).abs() < 1e-5);
+        assert_eq!(note, None);
+        // At another size, the same vertical field of view; another
+        // aspect ratio is noted.
+        let (small, note) = file.camera(80, 60);
+        assert!((small.screen_distance / (0.1 * c.screen_distance) - 1.0).abs() < 1e-5);
+        assert_eq!(note, None);
+        assert!(file.camera(100, 60).1.is_some());
         // With the lens values newer files add.
         let with_lens = format!("{}4.7 0.25\n", write(&c, 800, 600));
-        assert_eq!(parse(&with_lens).unwrap(), c);
+        assert_eq!(parse(&with_lens).unwrap(), file);
+    }
+
+    /// A file laid out as the viewer writes it, with a matrix that is not
+    /// symmetric: row i of the file is row i of camera-to-world, so the
+    /// camera's columns are the file's columns.
+    #[test]
+    fn the_matrix_is_read_row_by_row() {
+        let text = "49.1 37.8 1.333 0.1 100\n\
+                    1 2 3 0 0 0\n\
+                    1.2 0.3 4 1 10\n\
+                    0 0.6 0.8 1 0 0 0 0.8 -0.6\n\
+                    800 600 868.6\n";
+        let c = parse(text).unwrap().camera;
+        let m = c.camera_to_world;
+        assert_eq!(m.col(0), Vec3::new(0.0, 1.0, 0.0));
+        assert_eq!(m.col(1), Vec3::new(0.6, 0.0, 0.8));
+        assert_eq!(m.col(2), Vec3::new(0.8, 0.0, -0.6));
+        assert_eq!(c.position, Vec3::new(1.0, 2.0, 3.0));
+        assert_eq!((c.znear, c.zfar, c.screen_distance), (0.1, 100.0, 868.6));
     }
 
     #[test]
@@ -180,6 +256,7 @@ mod tests {
             (with(27, "0"), "screen distance 0"),
             (with(4, "0.05"), "clip planes"),
             (with(16, "3"), "not a rotation"),
+            (with(1, "180"), "vfov 180"),
         ];
         for (text, says) in cases {
             let e = parse(&text).unwrap_err();

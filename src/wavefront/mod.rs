@@ -63,6 +63,13 @@ pub struct RenderSettings {
     pub region: Option<Tile>,
 }
 
+impl RenderSettings {
+    /// The pixels rendered: the region, or the whole image.
+    pub fn area(&self) -> Tile {
+        self.region.unwrap_or(Tile::whole(self.width, self.height))
+    }
+}
+
 impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
@@ -140,8 +147,11 @@ impl<'a> Renderer<'a> {
         on_tile: &(dyn Fn(u64) + Sync),
         cancel: &AtomicBool,
     ) -> RenderOutput {
-        let whole = Tile::whole(settings.width, settings.height);
-        let tiles = settings.region.unwrap_or(whole).split(settings.tile_size);
+        // A region (`-p`) is rendered in place: each of its pixels draws the
+        // random numbers it draws in a whole render, so it gets the same
+        // value; the image holds the region only.
+        let area = settings.area();
+        let tiles = area.split(settings.tile_size);
         let results: Vec<(TileFilm, Stats, bool)> = tiles
             .par_iter()
             .map_init(Scratch::default, |scratch, &tile| {
@@ -150,16 +160,17 @@ impl<'a> Renderer<'a> {
                 out
             })
             .collect();
-        let mut image = Image::new(settings.width, settings.height);
+        let mut image = Image::new(area.width, area.height);
         let mut stats = Stats::default();
         let mut complete = true;
         for (film, s, done) in &results {
-            image.store(film);
+            image.store(film, area);
             stats += *s;
             complete &= *done;
         }
         if settings.integrator.view == View::BvhCost {
-            // The film holds the mean traversal steps per pixel: map to a heat scale.
+            // The film holds the mean traversal steps per pixel: map to a
+            // heat scale (whose top is the image's, or the region's, most).
             let max = image
                 .pixels
                 .iter()
@@ -170,11 +181,6 @@ impl<'a> Renderer<'a> {
                 p.x /= max;
                 *p = crate::film::output::rate_colour(p.x);
             }
-        }
-        // A region is rendered in place (each pixel draws the numbers it
-        // draws in a whole render, so it gets the same value) and cut out.
-        if let Some(region) = settings.region {
-            image = image.crop(region);
         }
         RenderOutput {
             image,
