@@ -358,6 +358,7 @@ fn check_agreement(bvh: &Bvh, escene: &embree::Scene, set: &RaySet, geometry: &G
         println!("   {} rays: not compared (the scene has spheres)", set.kind);
         return;
     }
+    let coherent = set.kind == "primary";
     let mut total = 0usize;
     for mode in [
         embree::Mode::Single,
@@ -367,7 +368,6 @@ fn check_agreement(bvh: &Bvh, escene: &embree::Scene, set: &RaySet, geometry: &G
         let mut differ = 0usize;
         for rays in &set.batches {
             let (mut ours, mut theirs, mut occ) = (Hits::default(), Hits::default(), Vec::new());
-            let coherent = set.kind == "primary";
             escene.trace(rays, set.shadow, coherent, mode, &mut theirs);
             if set.shadow {
                 bvh.occluded(rays, &mut occ, &mut TraversalStats::default());

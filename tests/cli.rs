@@ -26,6 +26,13 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// Runs `wavepath args… -f out scene`.
+fn render_to(scene: &str, out: &Path, args: &[&str]) -> Output {
+    let mut all = args.to_vec();
+    all.extend_from_slice(&["-f", out.to_str().unwrap(), scene]);
+    wavepath(&all)
+}
+
 /// Writes `text` as the scene `<name>.dae` and renders it with `args` at
 /// 400×300 (a W×H render is the central crop of the 800×600 view, and at
 /// this size it takes in the minimal fixture's objects) to `<name>.exr`.
@@ -34,10 +41,11 @@ fn render_text(name: &str, text: &str, args: &[&str]) -> (PathBuf, String) {
     let scene = scratch(&format!("{name}.dae"));
     std::fs::write(&scene, text).unwrap();
     let out = scratch(&format!("{name}.exr"));
-    let mut all = args.to_vec();
-    all.extend_from_slice(&["-r", "400", "300", "-f"]);
-    all.extend_from_slice(&[out.to_str().unwrap(), scene.to_str().unwrap()]);
-    let o = wavepath(&all);
+    let o = render_to(
+        scene.to_str().unwrap(),
+        &out,
+        &[args, &["-r", "400", "300"]].concat(),
+    );
     assert!(o.status.success(), "{name}: {}", stderr(&o));
     (out, stderr(&o))
 }
@@ -452,10 +460,11 @@ fn stats_count_each_stage_and_idle_stages_are_skipped() {
     let cornell = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
     let out = scratch("stages.png");
     let run = |scene: &str, args: &[&str]| -> String {
-        let mut all = vec!["-q", "--stats", "-r", "32", "24"];
-        all.extend_from_slice(args);
-        all.extend_from_slice(&["-f", out.to_str().unwrap(), scene]);
-        let o = wavepath(&all);
+        let o = render_to(
+            scene,
+            &out,
+            &[&["-q", "--stats", "-r", "32", "24"], args].concat(),
+        );
         assert!(o.status.success(), "{}", stderr(&o));
         stderr(&o)
     };
@@ -535,22 +544,14 @@ fn bvh_cost_view_and_traversal_counters() {
     };
     for accel in ["none", "median", "sah"] {
         let out = scratch(&format!("cost-{accel}.exr"));
-        let o = wavepath(&[
-            "-q",
-            "--stats",
-            "-s",
-            "1",
-            "-r",
-            "64",
-            "48",
-            "--accel",
-            accel,
-            "--shading",
-            "bvh-cost",
-            "-f",
-            out.to_str().unwrap(),
+        let args = [
+            "-q", "--stats", "-s", "1", "-r", "64", "48", "--accel", accel,
+        ];
+        let o = render_to(
             scene,
-        ]);
+            &out,
+            &[&args[..], &["--shading", "bvh-cost"]].concat(),
+        );
         assert!(o.status.success(), "{}", stderr(&o));
         let err = stderr(&o);
         let triangles: f64 = err
@@ -636,23 +637,13 @@ fn adaptive_sample_counts_reach_the_exr_and_the_rate_image() {
     let _ = scratch("counts_rate.png"); // no leftover from an earlier run
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
     let spp = 64u32;
-    let o = wavepath(&[
-        "-q",
-        "--stats",
-        "-s",
-        "64",
-        "-a",
-        "4",
-        "0.3",
-        "-m",
-        "1",
-        "-r",
-        "32",
-        "24",
-        "-f",
-        exr.to_str().unwrap(),
+    let o = render_to(
         scene,
-    ]);
+        &exr,
+        &[
+            "-q", "--stats", "-s", "64", "-a", "4", "0.3", "-m", "1", "-r", "32", "24",
+        ],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let image = read_image(&exr).unwrap();
     let counts = &image.samples;
@@ -703,21 +694,10 @@ fn every_accel_mode_renders_the_same_image() {
         .iter()
         .map(|accel| {
             let out = scratch(&format!("accel-{accel}.exr"));
-            let o = wavepath(&[
-                "-q",
-                "-s",
-                "4",
-                "-m",
-                "3",
-                "-r",
-                "64",
-                "48",
-                "--accel",
-                accel,
-                "-f",
-                out.to_str().unwrap(),
-                scene,
-            ]);
+            let args = [
+                "-q", "-s", "4", "-m", "3", "-r", "64", "48", "--accel", accel,
+            ];
+            let o = render_to(scene, &out, &args);
             assert!(o.status.success(), "{}", stderr(&o));
             std::fs::read(&out).unwrap()
         })
@@ -734,13 +714,10 @@ fn every_accel_mode_renders_the_same_image() {
 fn region_renders_the_cell_as_the_whole_image_has_it() {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
     let render = |name: &str, extra: &[&str]| -> Output {
-        let out = scratch(name);
-        let mut args = vec![
+        let base = [
             "-q", "-s", "8", "-m", "3", "-a", "4", "0.2", "-r", "64", "48",
         ];
-        args.extend_from_slice(extra);
-        args.extend_from_slice(&["-f", out.to_str().unwrap(), scene]);
-        wavepath(&args)
+        render_to(scene, &scratch(name), &[&base[..], extra].concat())
     };
     let o = render("region-whole.exr", &[]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -789,11 +766,8 @@ fn camera_settings_files_set_the_view() {
     let scene_path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
     let scene = wavepath::scene::collada::load_file(Path::new(scene_path)).unwrap();
     let render = |name: &str, extra: &[&str]| -> Output {
-        let out = scratch(name);
-        let mut args = vec!["-q", "-s", "2", "-m", "1", "-r", "64", "48"];
-        args.extend_from_slice(extra);
-        args.extend_from_slice(&["-f", out.to_str().unwrap(), scene_path]);
-        wavepath(&args)
+        let base = ["-q", "-s", "2", "-m", "1", "-r", "64", "48"];
+        render_to(scene_path, &scratch(name), &[&base[..], extra].concat())
     };
     let own = scratch("own.cam");
     std::fs::write(&own, camera_file::write(&scene.camera, 64, 48)).unwrap();
@@ -835,18 +809,11 @@ fn camera_settings_files_set_the_view() {
     // Written for 800×600 and rendered square: said.
     let wide = scratch("wide.cam");
     std::fs::write(&wide, camera_file::write(&scene.camera, 800, 600)).unwrap();
-    let out = scratch("cam-wide.exr");
-    let o = wavepath(&[
-        "-q",
-        "-r",
-        "48",
-        "48",
-        "-c",
-        wide.to_str().unwrap(),
-        "-f",
-        out.to_str().unwrap(),
+    let o = render_to(
         scene_path,
-    ]);
+        &scratch("cam-wide.exr"),
+        &["-q", "-r", "48", "48", "-c", wide.to_str().unwrap()],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("would stretch"), "{}", stderr(&o));
 

@@ -250,9 +250,9 @@ fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
     if let Some(file) = &args.camera {
         let text = std::fs::read_to_string(file)
             .map_err(|e| anyhow::anyhow!("-c {}: cannot read: {e}", file.display()))?;
-        let settings =
+        let saved =
             camera_file::parse(&text).map_err(|e| anyhow::anyhow!("-c {}: {e}", file.display()))?;
-        let (camera, note) = settings.camera(args.resolution[0], args.resolution[1]);
+        let (camera, note) = saved.camera(args.resolution[0], args.resolution[1]);
         if let Some(note) = note {
             eprintln!("warning: -c {}: {note}", file.display());
         }

@@ -429,10 +429,13 @@ impl LightSet {
         } else {
             bounds.min.abs().max(bounds.max.abs()).max_element()
         };
-        // A light of colour 0 would only cost shadow rays (an area light's
-        // rectangle stays in the geometry all the same).
-        set.dark = scene.lights.iter().filter(|light| !light.emits()).count();
-        for light in scene.lights.iter().filter(|light| light.emits()) {
+        for light in &scene.lights {
+            // A light of colour 0 would only cost shadow rays (an area
+            // light's rectangle stays in the geometry all the same).
+            if !light.emits() {
+                set.dark += 1;
+                continue;
+            }
             set.sources.push(match *light {
                 Light::Point {
                     position,
