@@ -248,8 +248,7 @@ fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
     // -c: the view of a CS184 viewer's camera settings file replaces the
     // scene's camera.
     if let Some(file) = &args.camera {
-        let text = std::fs::read_to_string(file)
-            .map_err(|e| anyhow::anyhow!("-c {}: cannot read: {e}", file.display()))?;
+        let text = read_camera_file(file)?;
         let saved =
             camera_file::parse(&text).map_err(|e| anyhow::anyhow!("-c {}: {e}", file.display()))?;
         let (camera, note) = saved.camera(args.resolution[0], args.resolution[1]);
@@ -259,6 +258,26 @@ fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
         scene.camera = camera;
     }
     Ok(scene)
+}
+
+/// The text of a `-c` file. Such files hold 28 or 30 numbers, so at most
+/// 64 KiB is read: a device (`/dev/zero`) would otherwise be read until
+/// memory runs out.
+fn read_camera_file(file: &std::path::Path) -> Result<String> {
+    use std::io::Read;
+    const LIMIT: u64 = 1 << 16;
+    let cannot = |e: std::io::Error| anyhow::anyhow!("-c {}: cannot read: {e}", file.display());
+    let mut text = String::new();
+    std::fs::File::open(file)
+        .and_then(|f| f.take(LIMIT + 1).read_to_string(&mut text))
+        .map_err(cannot)?;
+    if text.len() as u64 > LIMIT {
+        anyhow::bail!(
+            "-c {}: more than 64 KiB; not a camera settings file",
+            file.display()
+        );
+    }
+    Ok(text)
 }
 
 /// A flag that Ctrl-C sets. Failing to install the handler only loses the
