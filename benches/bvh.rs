@@ -10,6 +10,7 @@
 //! BVH_BENCH_PROFILE=primary cargo bench --bench bvh   # one set, traced once, for a profiler
 //! BVH_BENCH_PROFILE=threads cargo bench --bench bvh --features embree  # 1→all-thread scaling
 //!                                        # (and the machine's own, from two FMA kernels)
+//! BVH_BENCH_PROFILE=batches cargo bench --bench bvh   # per-batch times: is the VM preempting?
 //! BVH_BENCH_EMBREE_CONFIG=verbose=2 …   # Embree prints its BVH statistics (SAH cost, nodes)
 //! ```
 //!
@@ -309,22 +310,21 @@ fn ray_sets(w: &Workload, bvh: &Bvh) -> Vec<RaySet> {
 /// cannot be stolen, so with ~30 batches of unequal cost one thread sat
 /// idle for up to a third of a maxplanck shadow trace.
 fn trace(bvh: &Bvh, set: &RaySet, hits: &mut [Hits], occ: &mut [Vec<bool>]) {
+    set.batches
+        .par_iter()
+        .with_max_len(1)
+        .zip(hits.par_iter_mut().zip(occ.par_iter_mut()))
+        .for_each(|(rays, (h, o))| trace_batch(bvh, set, rays, h, o));
+}
+
+/// Traces one batch of `set`: closest hits into `hits`, or any hits into
+/// `occluded` for a shadow set.
+#[inline(always)]
+fn trace_batch(bvh: &Bvh, set: &RaySet, rays: &Rays, hits: &mut Hits, occluded: &mut Vec<bool>) {
     if set.shadow {
-        set.batches
-            .par_iter()
-            .with_max_len(1)
-            .zip(occ.par_iter_mut())
-            .for_each(|(rays, o)| {
-                bvh.occluded(rays, o, &mut TraversalStats::default());
-            });
+        bvh.occluded(rays, occluded, &mut TraversalStats::default());
     } else {
-        set.batches
-            .par_iter()
-            .with_max_len(1)
-            .zip(hits.par_iter_mut())
-            .for_each(|(rays, h)| {
-                bvh.intersect(rays, h, &mut TraversalStats::default(), None);
-            });
+        bvh.intersect(rays, hits, &mut TraversalStats::default(), None);
     }
 }
 
@@ -630,11 +630,7 @@ fn quick(w: &Workload) {
         let mut row = format!("  {:8} {:7} rays", set.kind, set.len());
         let (c1, _) = best_of(3, || {
             for (rays, (h, o)) in set.batches.iter().zip(hits.iter_mut().zip(occ.iter_mut())) {
-                if set.shadow {
-                    bvh.occluded(rays, o, &mut TraversalStats::default());
-                } else {
-                    bvh.intersect(rays, h, &mut TraversalStats::default(), None);
-                }
+                trace_batch(&bvh, set, rays, h, o);
             }
         });
         let (_, wm) = best_of(3, || all.install(|| trace(&bvh, set, &mut hits, &mut occ)));
@@ -746,6 +742,60 @@ fn thread_scaling(w: &Workload) {
     }
 }
 
+/// `BVH_BENCH_PROFILE=batches`: wavepath's trace of each set repeated
+/// back to back for 0.3 s on one thread and on all, with every batch
+/// timed. Per pool: the mean wall time per trace, the threads' busy share
+/// of it (what the rest is: the pool's wake-up and the tail of the last
+/// batches, a fixed cost per trace), and the median and longest batch (a
+/// longest batch of ~4 ms, one scheduler tick, is the core taken away
+/// mid-batch). Both explain why threads-mode figures of short traces are
+/// the noisiest (PERF.md, targets), whichever engine is timed.
+fn batch_times(w: &Workload) {
+    let bvh = Bvh::build(&w.geometry, Accel::Sah);
+    for set in &ray_sets(w, &bvh) {
+        let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
+        let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
+        let mut seconds = vec![0.0f64; set.batches.len()];
+        for (name, pool) in pools() {
+            settle();
+            let (mut traces, mut wall, mut busy) = (0, 0.0, 0.0);
+            let mut all = Vec::new();
+            let t0 = std::time::Instant::now();
+            while t0.elapsed().as_secs_f64() < 0.3 {
+                let start = std::time::Instant::now();
+                pool.install(|| {
+                    set.batches
+                        .par_iter()
+                        .with_max_len(1)
+                        .zip(hits.par_iter_mut().zip(occ.par_iter_mut()))
+                        .zip(seconds.par_iter_mut())
+                        .for_each(|((rays, (h, o)), secs)| {
+                            let b0 = std::time::Instant::now();
+                            trace_batch(&bvh, set, rays, h, o);
+                            *secs = b0.elapsed().as_secs_f64();
+                        });
+                });
+                wall += start.elapsed().as_secs_f64();
+                busy += seconds.iter().sum::<f64>();
+                all.extend_from_slice(&seconds);
+                traces += 1;
+            }
+            let threads = pool.current_num_threads() as f64;
+            let longest = all.iter().copied().fold(0.0, f64::max);
+            println!(
+                "{} {:8} {name}: {traces} traces, {:.3} ms each, threads busy {:.0}%, \
+                 batch median {:.3} ms, longest {:.3} ms",
+                w.name,
+                set.kind,
+                wall * 1e3 / traces as f64,
+                busy / (wall * threads) * 100.0,
+                median(&mut all) * 1e3,
+                longest * 1e3,
+            );
+        }
+    }
+}
+
 /// How this machine itself scales from one thread to all, printed before
 /// and after the scenes in `BVH_BENCH_PROFILE=threads`: a trace's
 /// one-to-all ratio means little without it, and on a shared VM it changes
@@ -824,6 +874,7 @@ fn main() {
         }
         let run = |w: &Workload| match profiled.as_deref() {
             Some("threads") => thread_scaling(w),
+            Some("batches") => batch_times(w),
             Some(kind) => profile(w, kind),
             None => quick(w),
         };
