@@ -314,17 +314,23 @@ fn trace(bvh: &Bvh, set: &RaySet, hits: &mut [Hits], occ: &mut [Vec<bool>]) {
         .par_iter()
         .with_max_len(1)
         .zip(hits.par_iter_mut().zip(occ.par_iter_mut()))
-        .for_each(|(rays, (h, o))| trace_batch(bvh, set, rays, h, o));
+        .for_each(|(rays, (h, o))| trace_batch(bvh, set, rays, (h, o), &mut Default::default()));
 }
 
 /// Traces one batch of `set`: closest hits into `hits`, or any hits into
-/// `occluded` for a shadow set.
+/// `occluded` for a shadow set; traversal counters into `stats`.
 #[inline(always)]
-fn trace_batch(bvh: &Bvh, set: &RaySet, rays: &Rays, hits: &mut Hits, occluded: &mut Vec<bool>) {
+fn trace_batch(
+    bvh: &Bvh,
+    set: &RaySet,
+    rays: &Rays,
+    (hits, occluded): (&mut Hits, &mut Vec<bool>),
+    stats: &mut TraversalStats,
+) {
     if set.shadow {
-        bvh.occluded(rays, occluded, &mut TraversalStats::default());
+        bvh.occluded(rays, occluded, stats);
     } else {
-        bvh.intersect(rays, hits, &mut TraversalStats::default(), None);
+        bvh.intersect(rays, hits, stats, None);
     }
 }
 
@@ -358,24 +364,26 @@ fn check_agreement(bvh: &Bvh, escene: &embree::Scene, set: &RaySet, geometry: &G
         println!("   {} rays: not compared (the scene has spheres)", set.kind);
         return;
     }
-    let coherent = set.kind == "primary";
+    // wavepath's answers once; each Embree mode's against them.
+    let mut ours: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
+    let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
+    trace(bvh, set, &mut ours, &mut occ);
+    let mut theirs: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
     let mut total = 0usize;
     for mode in [
         embree::Mode::Single,
         embree::Mode::Packet8,
         embree::Mode::Packet16,
     ] {
+        trace_embree(escene, set, mode, &mut theirs);
         let mut differ = 0usize;
-        for rays in &set.batches {
-            let (mut ours, mut theirs, mut occ) = (Hits::default(), Hits::default(), Vec::new());
-            escene.trace(rays, set.shadow, coherent, mode, &mut theirs);
+        for (b, rays) in set.batches.iter().enumerate() {
+            let (ours, occ, theirs) = (&ours[b], &occ[b], &theirs[b]);
             if set.shadow {
-                bvh.occluded(rays, &mut occ, &mut TraversalStats::default());
                 differ += (0..rays.len())
                     .filter(|&i| occ[i] != theirs.is_hit(i))
                     .count();
             } else {
-                bvh.intersect(rays, &mut ours, &mut TraversalStats::default(), None);
                 differ += (0..rays.len())
                     .filter(|&i| {
                         let near =
@@ -453,12 +461,9 @@ fn bench_workload(c: &mut Criterion, w: &Workload) {
     let sets = ray_sets(w, &bvh);
     for set in &sets {
         let mut stats = TraversalStats::default();
+        let (mut hits, mut occluded) = (Hits::default(), Vec::new());
         for rays in &set.batches {
-            if set.shadow {
-                bvh.occluded(rays, &mut Vec::new(), &mut stats);
-            } else {
-                bvh.intersect(rays, &mut Hits::default(), &mut stats, None);
-            }
+            trace_batch(&bvh, set, rays, (&mut hits, &mut occluded), &mut stats);
         }
         println!(
             "   {} rays: {}, {:.1} nodes and {:.1} primitives per ray",
@@ -630,7 +635,7 @@ fn quick(w: &Workload) {
         let mut row = format!("  {:8} {:7} rays", set.kind, set.len());
         let (c1, _) = best_of(3, || {
             for (rays, (h, o)) in set.batches.iter().zip(hits.iter_mut().zip(occ.iter_mut())) {
-                trace_batch(&bvh, set, rays, h, o);
+                trace_batch(&bvh, set, rays, (h, o), &mut Default::default());
             }
         });
         let (_, wm) = best_of(3, || all.install(|| trace(&bvh, set, &mut hits, &mut occ)));
@@ -752,11 +757,12 @@ fn thread_scaling(w: &Workload) {
 /// the noisiest (PERF.md, targets), whichever engine is timed.
 fn batch_times(w: &Workload) {
     let bvh = Bvh::build(&w.geometry, Accel::Sah);
+    let pools = pools();
     for set in &ray_sets(w, &bvh) {
         let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
         let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
         let mut seconds = vec![0.0f64; set.batches.len()];
-        for (name, pool) in pools() {
+        for (name, pool) in &pools {
             settle();
             let (mut traces, mut wall, mut busy) = (0, 0.0, 0.0);
             let mut all = Vec::new();
@@ -771,7 +777,7 @@ fn batch_times(w: &Workload) {
                         .zip(seconds.par_iter_mut())
                         .for_each(|((rays, (h, o)), secs)| {
                             let b0 = std::time::Instant::now();
-                            trace_batch(&bvh, set, rays, h, o);
+                            trace_batch(&bvh, set, rays, (h, o), &mut Default::default());
                             *secs = b0.elapsed().as_secs_f64();
                         });
                 });
@@ -781,7 +787,8 @@ fn batch_times(w: &Workload) {
                 traces += 1;
             }
             let threads = pool.current_num_threads() as f64;
-            let longest = all.iter().copied().fold(0.0, f64::max);
+            let batch_median = median(&mut all); // sorts `all`
+            let longest = all.last().copied().unwrap_or(0.0);
             println!(
                 "{} {:8} {name}: {traces} traces, {:.3} ms each, threads busy {:.0}%, \
                  batch median {:.3} ms, longest {:.3} ms",
@@ -789,7 +796,7 @@ fn batch_times(w: &Workload) {
                 set.kind,
                 wall * 1e3 / traces as f64,
                 busy / (wall * threads) * 100.0,
-                median(&mut all) * 1e3,
+                batch_median * 1e3,
                 longest * 1e3,
             );
         }
@@ -855,11 +862,7 @@ fn trace_profiled(bvh: &Bvh, set: &RaySet, repeat: usize) -> TraversalStats {
     // Result buffers reused from batch to batch, as the renderer does.
     let (mut hits, mut occluded) = (Hits::default(), Vec::new());
     for rays in std::iter::repeat_n(&set.batches, repeat).flatten() {
-        if set.shadow {
-            bvh.occluded(rays, &mut occluded, &mut stats);
-        } else {
-            bvh.intersect(rays, &mut hits, &mut stats, None);
-        }
+        trace_batch(bvh, set, rays, (&mut hits, &mut occluded), &mut stats);
     }
     stats
 }

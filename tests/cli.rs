@@ -358,20 +358,21 @@ fn non_finite_pixels_are_said_and_written_as_zero() {
     let scene = scratch("overflow.dae");
     std::fs::write(&scene, text).unwrap();
     let out = scratch("overflow.exr");
-    let o = wavepath(&[
-        "-q",
-        "--no-adaptive",
-        "-s",
-        "2",
-        "-m",
-        "3",
-        "-r",
-        "24",
-        "18",
-        "-f",
-        out.to_str().unwrap(),
+    let o = render_to(
         scene.to_str().unwrap(),
-    ]);
+        &out,
+        &[
+            "-q",
+            "--no-adaptive",
+            "-s",
+            "2",
+            "-m",
+            "3",
+            "-r",
+            "24",
+            "18",
+        ],
+    );
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
     assert!(

@@ -11,9 +11,9 @@ use crate::integrator::{Bounces, View};
 /// Most `-l` samples: every path vertex holds this many draws, and its
 /// shadow rays, per light, for a whole wave at once (at 1024, ~250 MB per
 /// thread and light).
-pub const MAX_LIGHT_SAMPLES: u32 = 1024;
+const MAX_LIGHT_SAMPLES: u32 = 1024;
 /// Most `-t` worker threads.
-pub const MAX_THREADS: u32 = 1024;
+const MAX_THREADS: u32 = 1024;
 
 #[derive(Parser, Debug, Clone)]
 #[command(

@@ -85,10 +85,7 @@ pub struct MitsubaArgs {
 pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
     let args = MitsubaArgs::parse_from(argv);
     if let Err(e) = super::check_pixel_count(&args.resolution) {
-        use clap::CommandFactory;
-        MitsubaArgs::command()
-            .error(clap::error::ErrorKind::ValueValidation, e)
-            .exit();
+        super::usage_error::<MitsubaArgs>(e);
     }
     let scene = collada::load_file(&args.scene)?;
     for w in &scene.warnings {
@@ -327,8 +324,7 @@ fn write_ply(path: &Path, scene: &Scene, faces: &[usize], flip: bool, apart: f32
     let mut bytes = header.into_bytes();
     let sign = if flip { -1.0 } else { 1.0 };
     for &t in faces {
-        let [a, b, c] = tris.vertices(t);
-        let face_normal = normalize_any_scale((b - a).cross(c - a)).unwrap_or(Vec3::ZERO);
+        let face_normal = normalize_any_scale(tris.geometric_normal(t)).unwrap_or(Vec3::ZERO);
         for index in tris.indices[t] {
             let i = index as usize;
             let n = tris

@@ -54,14 +54,18 @@ fn scene_path(args: &Args) -> &std::path::Path {
         .unwrap_or(std::path::Path::new(DEFAULT_SCENE_NAME))
 }
 
+/// Exits as clap does on a bad value of command `C`: `msg` with a usage
+/// hint, status 2.
+fn usage_error<C: CommandFactory>(msg: String) -> ! {
+    C::command()
+        .error(clap::error::ErrorKind::ValueValidation, msg)
+        .exit()
+}
+
 /// Checks what clap cannot: cross-field and float-valued flags.
 /// Exits with a usage hint on nonsense, like clap's own errors.
 fn validate(args: &Args) -> (RenderSettings, PathBuf) {
-    let fail = |msg: String| -> ! {
-        Args::command()
-            .error(clap::error::ErrorKind::ValueValidation, msg)
-            .exit()
-    };
+    let fail = usage_error::<Args>;
     let adaptive = if args.no_adaptive {
         None
     } else {
@@ -221,7 +225,8 @@ fn report_status(status: Result<i32>) -> Result<i32> {
 fn check_pixel_count(resolution: &[u32]) -> std::result::Result<(), String> {
     let (w, h) = (resolution[0], resolution[1]);
     if w as u64 * h as u64 > crate::film::MAX_PIXELS {
-        return Err(format!("-r {w} {h}: more than 2^28 pixels"));
+        let log2 = crate::film::MAX_PIXELS.trailing_zeros();
+        return Err(format!("-r {w} {h}: more than 2^{log2} pixels"));
     }
     Ok(())
 }

@@ -184,12 +184,7 @@ mod tests {
     /// the samples added one by one, in the same order.
     #[test]
     fn runs_of_samples_add_up_like_single_samples() {
-        let tile = Tile {
-            x0: 0,
-            y0: 0,
-            width: 2,
-            height: 1,
-        };
+        let tile = Tile::whole(2, 1);
         let samples: Vec<Vec3> = (0..7)
             .map(|k| Vec3::new(0.1 * k as f32, 1.0 / (k + 1) as f32, 3.0 - 0.3 * k as f32))
             .collect();
@@ -220,12 +215,7 @@ mod tests {
     fn bright_finite_samples_average_to_a_finite_pixel() {
         // Four samples of 3e38 sum past f32's largest value (3.4e38); the
         // mean of finite samples is finite, and the pixel must say so.
-        let tile = Tile {
-            x0: 0,
-            y0: 0,
-            width: 1,
-            height: 1,
-        };
+        let tile = Tile::whole(1, 1);
         let mut film = TileFilm::new(tile);
         film.add(0, &[Vec3::splat(3e38); 4]);
         let mut image = Image::new(1, 1);

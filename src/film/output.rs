@@ -252,10 +252,11 @@ fn read_exr(path: &Path) -> Result<Image> {
         let size = header.layer_size;
         if size.0 as u64 * size.1 as u64 > super::MAX_PIXELS {
             bail!(
-                "{}: the EXR claims {}x{} pixels, more than the 2^28 this program reads",
+                "{}: the EXR claims {}x{} pixels, more than the 2^{} this program reads",
                 path.display(),
                 size.0,
-                size.1
+                size.1,
+                super::MAX_PIXELS.trailing_zeros()
             );
         }
     }

@@ -423,12 +423,7 @@ pub struct LightSet {
 impl LightSet {
     pub fn new(scene: &Scene, surfaces: &[Surface]) -> LightSet {
         let mut set = LightSet::default();
-        let bounds = scene.geometry.bounds();
-        let scene_extent = if bounds.is_empty() {
-            0.0
-        } else {
-            bounds.min.abs().max(bounds.max.abs()).max_element()
-        };
+        let scene_extent = scene.geometry.bounds().max_abs();
         for light in &scene.lights {
             // A light of colour 0 would only cost shadow rays (an area
             // light's rectangle stays in the geometry all the same).

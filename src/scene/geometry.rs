@@ -25,6 +25,16 @@ impl Aabb {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }
 
+    /// Largest coordinate magnitude of the box's corners (0 when empty):
+    /// how far from the origin the scene reaches, which bounds rounding.
+    pub fn max_abs(&self) -> f32 {
+        if self.is_empty() {
+            0.0
+        } else {
+            self.min.abs().max(self.max.abs()).max_element()
+        }
+    }
+
     pub fn grow(&mut self, p: Vec3) {
         self.min = self.min.min(p);
         self.max = self.max.max(p);

@@ -64,9 +64,18 @@ pub struct RenderSettings {
 }
 
 impl RenderSettings {
-    /// The pixels rendered: the region, or the whole image.
+    /// The pixels rendered: the region (which must lie inside the image,
+    /// as the command line checks), or the whole image.
     pub fn area(&self) -> Tile {
-        self.region.unwrap_or(Tile::whole(self.width, self.height))
+        let area = self.region.unwrap_or(Tile::whole(self.width, self.height));
+        debug_assert!(
+            u64::from(area.x0) + u64::from(area.width) <= u64::from(self.width)
+                && u64::from(area.y0) + u64::from(area.height) <= u64::from(self.height),
+            "region {area:?} outside the {}x{} image",
+            self.width,
+            self.height
+        );
+        area
     }
 }
 

@@ -48,19 +48,19 @@ const MAX_COORDINATE: f32 = 1e12;
 
 /// Loads a `.dae` file.
 pub fn load_file(path: &Path) -> Result<Scene, LoadError> {
-    if path.is_dir() {
-        return Err(LoadError::file(path, "is a directory, not a scene file"));
-    }
     // A device (/dev/zero) would be read until memory runs out. Pipes are
-    // fine (`wavepath <(zcat scene.dae.gz)`).
-    if let Ok(meta) = std::fs::metadata(path)
-        && !meta.is_file()
-        && !is_pipe(&meta.file_type())
-    {
-        return Err(LoadError::file(
-            path,
-            "is a device or socket, not a scene file",
-        ));
+    // fine (`wavepath <(zcat scene.dae.gz)`). A path that cannot be
+    // examined is left to the read below to report.
+    if let Ok(meta) = std::fs::metadata(path) {
+        if meta.is_dir() {
+            return Err(LoadError::file(path, "is a directory, not a scene file"));
+        }
+        if !meta.is_file() && !is_pipe(&meta.file_type()) {
+            return Err(LoadError::file(
+                path,
+                "is a device or socket, not a scene file",
+            ));
+        }
     }
     let bytes =
         std::fs::read(path).map_err(|e| LoadError::file(path, format!("cannot read: {e}")))?;
@@ -232,7 +232,8 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
             return Err(src.error(
                 scene,
                 format!(
-                    "the scene's instances add up to {count} primitives, more than the {MAX_PRIMITIVES} (2^26) wavepath takes"
+                    "the scene's instances add up to {count} primitives, more than the {MAX_PRIMITIVES} (2^{}) wavepath takes",
+                    MAX_PRIMITIVES.trailing_zeros()
                 ),
             ));
         }
@@ -570,7 +571,7 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
                 "{path}: no geometry (no <instance_geometry> of a mesh or sphere); only lights can show"
             ));
         } else {
-            let reach = bounds.min.abs().max(bounds.max.abs()).max_element();
+            let reach = bounds.max_abs();
             if reach > MAX_COORDINATE {
                 self.warnings.push(format!(
                     "{path}: coordinates reach {reach:e}; past {MAX_COORDINATE:e} the single-precision ray/triangle test overflows, and triangles may be missed"
