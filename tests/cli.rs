@@ -839,4 +839,15 @@ fn camera_settings_files_set_the_view() {
         );
         assert!(!err.contains("panicked"), "{err}");
     }
+    // The camera file is read before the scene: with both at fault, the
+    // error names the small file, found without loading the large one.
+    let o = render_to(
+        "no/such/scene.dae",
+        &scratch("cam-bad-both.exr"),
+        &["-q", "-c", bad.to_str().unwrap()],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(err.contains(&format!("-c {}", bad.display())), "{err}");
+    assert!(!err.contains("no/such/scene.dae"), "{err}");
 }

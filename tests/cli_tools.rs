@@ -395,7 +395,22 @@ fn mitsuba_writes_the_scene_and_refuses_bad_input_naming_the_file() {
             err.contains(value) && !err.contains("panicked"),
             "{flag} {value}: {err}"
         );
-    }
+    } // A list flag given twice is refused, as the render refuses it, not
+    // read as its first list.
+    let o = wavepath(&[
+        "mitsuba",
+        "-r",
+        "64",
+        "48",
+        "-r",
+        "32",
+        "32",
+        SCENE,
+        out.to_str().unwrap(),
+    ]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "-r twice: {err}");
+    assert!(err.contains("--resolution"), "-r twice: {err}");
 }
 
 #[test]

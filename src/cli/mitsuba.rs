@@ -75,6 +75,7 @@ pub struct MitsubaArgs {
         long = "resolution",
         num_args = 2,
         value_names = ["W", "H"],
+        action = clap::ArgAction::Set,
         default_values_t = [480, 360],
         value_parser = clap::value_parser!(u32).range(1..=65536)
     )]

@@ -246,20 +246,27 @@ fn thread_pool(args: &Args) -> Result<(rayon::ThreadPool, usize)> {
 
 /// The named scene, or the built-in one.
 fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
+    // -c: the view of a CS184 viewer's camera settings file replaces the
+    // scene's camera. The small file is read first, so a mistake in it is
+    // reported before a large scene has been loaded.
+    let camera = match &args.camera {
+        Some(file) => {
+            let text = read_camera_file(file)?;
+            let saved = camera_file::parse(&text)
+                .map_err(|e| anyhow::anyhow!("-c {}: {e}", file.display()))?;
+            let (camera, note) = saved.camera(args.resolution[0], args.resolution[1]);
+            if let Some(note) = note {
+                eprintln!("warning: -c {}: {note}", file.display());
+            }
+            Some(camera)
+        }
+        None => None,
+    };
     let mut scene = match &args.scene {
         Some(path) => collada::load_file(path)?,
         None => collada::load_str(DEFAULT_SCENE, std::path::Path::new(DEFAULT_SCENE_NAME))?,
     };
-    // -c: the view of a CS184 viewer's camera settings file replaces the
-    // scene's camera.
-    if let Some(file) = &args.camera {
-        let text = read_camera_file(file)?;
-        let saved =
-            camera_file::parse(&text).map_err(|e| anyhow::anyhow!("-c {}: {e}", file.display()))?;
-        let (camera, note) = saved.camera(args.resolution[0], args.resolution[1]);
-        if let Some(note) = note {
-            eprintln!("warning: -c {}: {note}", file.display());
-        }
+    if let Some(camera) = camera {
         scene.camera = camera;
     }
     Ok(scene)
