@@ -49,7 +49,7 @@ use criterion::{BenchmarkId, Criterion, Throughput};
 use glam::Vec3;
 use rayon::prelude::*;
 use wavepath::bvh::{Accel, Bvh, TraversalStats};
-use wavepath::ray::{Hits, NO_HIT, Rays, offset_from_surface};
+use wavepath::ray::{Hits, NO_HIT, Rays, offset_from_surface, surface_reach};
 use wavepath::scene::{Camera, Geometry, Light, Perspective, Spheres, Triangles};
 
 const WIDTH: u32 = 1024;
@@ -81,6 +81,14 @@ struct RaySet {
 impl RaySet {
     fn len(&self) -> usize {
         self.batches.iter().map(Rays::len).sum()
+    }
+
+    /// Result buffers for [`trace`]: closest hits and any-hit flags, one
+    /// per batch.
+    fn buffers(&self) -> (Vec<Hits>, Vec<Vec<bool>>) {
+        let hits = self.batches.iter().map(|_| Hits::default()).collect();
+        let occluded = self.batches.iter().map(|_| Vec::new()).collect();
+        (hits, occluded)
     }
 }
 
@@ -242,11 +250,7 @@ fn ray_sets(w: &Workload, bvh: &Bvh) -> Vec<RaySet> {
             let prim = hits.prim[i] as usize;
             let tris = &w.geometry.triangles;
             let (mut n, reach) = if prim < tris.len() {
-                let reach = tris
-                    .vertices(prim)
-                    .iter()
-                    .map(|&v| (v - p).abs().max_element())
-                    .fold(0.0, f32::max);
+                let reach = surface_reach(p, &tris.vertices(prim));
                 (tris.geometric_normal(prim).normalize_or(Vec3::Y), reach)
             } else {
                 let s = prim - tris.len();
@@ -310,6 +314,9 @@ fn ray_sets(w: &Workload, bvh: &Bvh) -> Vec<RaySet> {
 /// cannot be stolen, so with ~30 batches of unequal cost one thread sat
 /// idle for up to a third of a maxplanck shadow trace.
 fn trace(bvh: &Bvh, set: &RaySet, hits: &mut [Hits], occ: &mut [Vec<bool>]) {
+    // The batches are zipped with both buffers: a short one would silently
+    // trace fewer batches.
+    assert!(hits.len() == set.batches.len() && occ.len() == set.batches.len());
     set.batches
         .par_iter()
         .with_max_len(1)
@@ -365,10 +372,9 @@ fn check_agreement(bvh: &Bvh, escene: &embree::Scene, set: &RaySet, geometry: &G
         return;
     }
     // wavepath's answers once; each Embree mode's against them.
-    let mut ours: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
-    let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
+    let (mut ours, mut occ) = set.buffers();
     trace(bvh, set, &mut ours, &mut occ);
-    let mut theirs: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
+    let (mut theirs, _) = set.buffers();
     let mut total = 0usize;
     for mode in [
         embree::Mode::Single,
@@ -474,8 +480,7 @@ fn bench_workload(c: &mut Criterion, w: &Workload) {
         );
     }
     for set in &sets {
-        let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
-        let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
+        let (mut hits, mut occ) = set.buffers();
         #[cfg(feature = "embree")]
         check_agreement(&bvh, &escene, set, &w.geometry);
         let mut group = c.benchmark_group(format!("trace/{}/{}", w.name, set.kind));
@@ -518,8 +523,7 @@ fn bench_scaling(c: &mut Criterion) {
         let bvh = Bvh::build(&w.geometry, Accel::Sah);
         let sets = ray_sets(&w, &bvh);
         let set = &sets[0];
-        let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
-        let mut occ: Vec<Vec<bool>> = Vec::new();
+        let (mut hits, mut occ) = set.buffers();
         group.throughput(Throughput::Elements(set.len() as u64));
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
@@ -627,8 +631,7 @@ fn quick(w: &Workload) {
     );
     let all = rayon::ThreadPoolBuilder::new().build().unwrap();
     for set in &ray_sets(w, &bvh) {
-        let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
-        let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
+        let (mut hits, mut occ) = set.buffers();
         #[cfg(feature = "embree")]
         check_agreement(&bvh, &escene, set, &w.geometry);
         let n = set.len() as f64 * 1e-6;
@@ -700,8 +703,7 @@ fn thread_scaling(w: &Workload) {
     let modes: [(); 0] = [];
     let [(_, one), (_, all)] = pools();
     for set in &ray_sets(w, &bvh) {
-        let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
-        let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
+        let (mut hits, mut occ) = set.buffers();
         let n = set.len() as f64 * 1e-6;
         // rates[engine][pool]: engine 0 is wavepath, then Embree's modes.
         let mut rates = vec![[Vec::new(), Vec::new()]; 1 + modes.len()];
@@ -759,8 +761,7 @@ fn batch_times(w: &Workload) {
     let bvh = Bvh::build(&w.geometry, Accel::Sah);
     let pools = pools();
     for set in &ray_sets(w, &bvh) {
-        let mut hits: Vec<Hits> = set.batches.iter().map(|_| Hits::default()).collect();
-        let mut occ: Vec<Vec<bool>> = set.batches.iter().map(|_| Vec::new()).collect();
+        let (mut hits, mut occ) = set.buffers();
         let mut seconds = vec![0.0f64; set.batches.len()];
         for (name, pool) in &pools {
             settle();

@@ -214,7 +214,7 @@ pub fn offset_by_x8(p: Vec3x8, n: Vec3x8, err: f32x8) -> Vec3x8 {
 /// [`offset_by`] for a point `p` on a primitive, known to within a few
 /// ULPs of its own coordinates: `reach` is the largest coordinate
 /// difference between `p` and the primitive's farthest point (for a
-/// triangle, max over its vertices v of max|vᵢ − pᵢ|), and `err` =
+/// triangle, [`surface_reach`] of its vertices), and `err` =
 /// γ₈·(max|pᵢ| + reach). The reach matters: a point near the middle of a
 /// large floor needs an offset set by the floor's size, not by its own
 /// coordinates. For outside tools that trace batches; the renderer's
@@ -222,6 +222,16 @@ pub fn offset_by_x8(p: Vec3x8, n: Vec3x8, err: f32x8) -> Vec3x8 {
 #[inline]
 pub fn offset_from_surface(p: Vec3, n: Vec3, reach: f32) -> Vec3 {
     offset_by(p, n, gamma(8) * (p.abs().max_element() + reach))
+}
+
+/// The largest coordinate difference between `p` and any of `corners`
+/// (max over corners v of max|vᵢ − pᵢ|): the `reach` of
+/// [`offset_from_surface`] for a point on a polygon with those corners.
+pub fn surface_reach(p: Vec3, corners: &[Vec3]) -> f32 {
+    corners
+        .iter()
+        .map(|&v| (v - p).abs().max_element())
+        .fold(0.0, f32::max)
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ use std::path::Path;
 use glam::Vec3;
 use proptest::prelude::*;
 use wavepath::bvh::{Accel, Bvh, TraversalStats};
-use wavepath::ray::{Hits, NO_HIT, Rays, offset_from_surface};
+use wavepath::ray::{Hits, NO_HIT, Rays, offset_from_surface, surface_reach};
 use wavepath::scene::{Geometry, Spheres, Triangles};
 
 const ACCELS: [Accel; 2] = [Accel::Sah, Accel::Median];
@@ -762,11 +762,7 @@ fn rays_offset_from_a_surface_by_its_reach_leave_it() {
             // p's own coordinates are small next to the floor's size.
             let (a, b) = (rng.next() as f64 - 0.5, rng.next() as f64 - 0.5);
             let p = ((a * u.as_dvec3() + b * v.as_dvec3()) * scale as f64).as_vec3();
-            let reach = corners
-                .iter()
-                .map(|&c| (c - p).abs().max_element())
-                .fold(0.0, f32::max);
-            let o = offset_from_surface(p, n, reach);
+            let o = offset_from_surface(p, n, surface_reach(p, &corners));
             // Grazing: nearly along the floor, slightly up.
             let along = (rng.next() - 0.5) * u + (rng.next() - 0.5) * v;
             let d = along + n * (rng.next() * 1e-3 + 1e-6);

@@ -395,7 +395,8 @@ fn mitsuba_writes_the_scene_and_refuses_bad_input_naming_the_file() {
             err.contains(value) && !err.contains("panicked"),
             "{flag} {value}: {err}"
         );
-    } // A list flag given twice is refused, as the render refuses it, not
+    }
+    // A list flag given twice is refused, as the render refuses it, not
     // read as its first list.
     let o = wavepath(&[
         "mitsuba",

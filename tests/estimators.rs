@@ -521,13 +521,18 @@ fn directional_light_lights_a_floor_by_its_cosine() {
     // L_o = ρ/π · E cos θ, the same at every floor point.
     let to_light = Vec3::new(1.0, 2.0, 0.5).normalize();
     let radiance = 3.0f32;
-    let mut b = Builder::default();
-    floor_scene(&mut b);
-    b.lights.push(Light::Directional {
-        to_light,
-        radiance: Vec3::splat(radiance),
-    });
-    let scene = b.build(top_down_camera(3.0));
+    // The lit floor, with `more` lights besides the directional one.
+    let lit_floor = |more: &[Light]| {
+        let mut b = Builder::default();
+        floor_scene(&mut b);
+        b.lights.push(Light::Directional {
+            to_light,
+            radiance: Vec3::splat(radiance),
+        });
+        b.lights.extend_from_slice(more);
+        b.build(top_down_camera(3.0))
+    };
+    let scene = lit_floor(&[]);
     let expected = ALBEDO as f64 / PI * radiance as f64 * to_light.y as f64;
     let image = render(&scene, &settings(W, H, 2, 2), 2);
     for p in &image.pixels {
@@ -538,17 +543,10 @@ fn directional_light_lights_a_floor_by_its_cosine() {
     }
     // Uniform hemisphere probes never find a delta light (a direction or a
     // point), as in the reference: -H leaves such scenes black.
-    let mut b = Builder::default();
-    floor_scene(&mut b);
-    b.lights.push(Light::Directional {
-        to_light,
-        radiance: Vec3::splat(radiance),
-    });
-    b.lights.push(Light::Point {
+    let scene = lit_floor(&[Light::Point {
         position: Vec3::new(0.0, 1.0, 0.0),
         intensity: Vec3::splat(5.0),
-    });
-    let scene = b.build(top_down_camera(3.0));
+    }]);
     let mut s = settings(W, H, 4, 1);
     s.integrator.hemisphere = true;
     let image = render(&scene, &s, 2);
