@@ -499,12 +499,17 @@ fn stats_count_each_stage_and_idle_stages_are_skipped() {
         (ratio - 3.0).abs() < 0.03,
         "-l 3 traced {ratio}× the shadow rays of -l 1"
     );
-    let err = run(
-        cornell,
-        &[&fixed[..], &["-m", "1", "-H", "-l", "2"]].concat(),
-    );
-    assert_eq!(stage_items(&err, "shadow-test"), None, "{err}");
-    assert!(stage_items(&err, "probe (-H)").unwrap() > 0, "{err}");
+    // -H: N = lights × -l probes at every diffuse hit, whether or not it
+    // sees a light (at -m 1 the hits are the camera rays' alone, the same
+    // in both runs).
+    let probes = |l: &str| {
+        let err = run(cornell, &[&fixed[..], &["-m", "1", "-H", "-l", l]].concat());
+        assert_eq!(stage_items(&err, "shadow-test"), None, "{err}");
+        stage_items(&err, "probe (-H)").unwrap()
+    };
+    let one = probes("1");
+    assert!(one > 0);
+    assert_eq!(probes("3"), 3 * one);
 
     // Converged pixels drop out: fewer camera rays than -s asks for, in
     // whole batches of -a's first number per pixel.
@@ -527,6 +532,14 @@ fn stats_count_each_stage_and_idle_stages_are_skipped() {
             "{name}: {err}"
         );
     }
+    // The fixture's light is a point light, exact with one sample: `-l`
+    // (samples per area-like light) leaves its shadow rays alone.
+    let point_light_rays = |l: &str| {
+        let args = ["-q", "--stats", "-s", "1", "-m", "2", "-l", l];
+        let (_, err) = render_text("stages-point", lit, &args);
+        stage_items(&err, "shadow-test")
+    };
+    assert_eq!(point_light_rays("4"), point_light_rays("1"));
 }
 
 /// `--shading bvh-cost` maps each pixel's traversal steps to the rate

@@ -39,4 +39,24 @@ mod tests {
         // A black pixel (μ = 0, σ = 0) has converged: I = 0 ≤ 0.
         assert!(converged(32, 0.0, 0.0, 0.05));
     }
+
+    #[test]
+    fn one_sample_never_converges() {
+        // With `-a 1 …` the first test comes after one sample, where the
+        // sample variance (÷ (n − 1) = 0) is undefined: even a zero-noise
+        // looking pixel must take a second sample.
+        assert!(!converged(1, 1.0, 1.0, 0.05));
+        assert!(!converged(1, 0.0, 0.0, 1e9));
+        assert!(!converged(0, 0.0, 0.0, 1e9));
+    }
+
+    #[test]
+    fn variance_is_the_unbiased_sample_variance() {
+        // Two samples, 0 and 2: μ = 1, s² = ((0−1)² + (2−1)²)/(2 − 1) = 2,
+        // so I = 1.96·√(2/2) = 1.96. Dividing by n instead (s² = 1) would
+        // give I ≈ 1.39, by n + 1 (s² = 2/3) I ≈ 1.13: a tolerance of 1.9
+        // tells them apart, and 2.0 shows n = 2 is tested at all.
+        assert!(!converged(2, 2.0, 4.0, 1.9));
+        assert!(converged(2, 2.0, 4.0, 2.0));
+    }
 }
