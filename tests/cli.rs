@@ -540,6 +540,26 @@ fn stats_count_each_stage_and_idle_stages_are_skipped() {
         stage_items(&err, "shadow-test")
     };
     assert_eq!(point_light_rays("4"), point_light_rays("1"));
+    // -H counts a light of colour 0 in its N, as the reference does: one
+    // black light beside the lamp doubles the probes.
+    let with_dark = lit
+        .replace(
+            "</library_lights>",
+            "<light id=\"dark\"><technique_common><point><color>0 0 0</color>\
+             </point></technique_common></light></library_lights>",
+        )
+        .replace(
+            "</visual_scene>",
+            "<node id=\"dark-node\"><instance_light url=\"#dark\"/></node></visual_scene>",
+        );
+    let probes = |name: &str, text: &str| {
+        let args = ["-q", "--stats", "-s", "1", "-m", "1", "-H"];
+        stage_items(&render_text(name, text, &args).1, "probe (-H)").unwrap()
+    };
+    assert_eq!(
+        probes("stages-dark", &with_dark),
+        2 * probes("stages-lamp", lit)
+    );
 }
 
 /// `--shading bvh-cost` maps each pixel's traversal steps to the rate
