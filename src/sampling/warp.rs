@@ -296,4 +296,58 @@ mod tests {
             assert!(((c * c + s * s) as f64 - 1.0).abs() < 4e-7, "norm at {v}");
         }
     }
+
+    /// The concentric map sends a stratified grid of the square to points
+    /// spread uniformly over the unit disk: the radial moments E[r²] = 1/2
+    /// and E[r⁴] = 1/3, E[x²] = E[y²] = 1/4, and equal shares in eight
+    /// equal sectors. An odd grid
+    /// puts strata on the square's centre lines, where the map divides by
+    /// zero unless it handles the centre.
+    #[test]
+    fn concentric_disk_is_uniform_over_the_disk() {
+        const K: usize = 65;
+        let points: Vec<Vec2> = (0..K * K)
+            .map(|s| ((s % K) as f32 + 0.5, (s / K) as f32 + 0.5))
+            .map(|(i, j)| concentric_disk(i / K as f32, j / K as f32))
+            .collect();
+        let n = points.len() as f32;
+        assert_eq!(concentric_disk(0.5, 0.5), Vec2::ZERO);
+        assert!(
+            points
+                .iter()
+                .all(|p| p.is_finite() && p.length() <= 1.0 + 1e-6)
+        );
+        let at_centre = points.iter().filter(|p| p.length() < 1e-6).count();
+        assert_eq!(at_centre, 1, "points sent to the centre");
+        // Each quadrant of the square maps onto the same quadrant of the
+        // disk (what keeps strata compact).
+        for (s, p) in points.iter().enumerate() {
+            let (a, b) = (
+                (s % K) as f32 - (K / 2) as f32,
+                (s / K) as f32 - (K / 2) as f32,
+            );
+            assert!(p.x * a >= 0.0 && p.y * b >= 0.0, "({a}, {b}) went to {p}");
+        }
+        let share = |f: &dyn Fn(&Vec2) -> bool| points.iter().filter(|p| f(p)).count() as f32 / n;
+        let moment = |f: &dyn Fn(&Vec2) -> f32| points.iter().map(f).sum::<f32>() / n;
+        let r2 = moment(&|p| p.length_squared());
+        let r4 = moment(&|p| p.length_squared().powi(2));
+        assert!(
+            (r2 - 0.5).abs() < 2e-3 && (r4 - 1.0 / 3.0).abs() < 2e-3,
+            "{r2}, {r4}"
+        );
+        for sector in 0..8 {
+            let of = |p: &Vec2| {
+                let angle = p.y.atan2(p.x).rem_euclid(std::f32::consts::TAU);
+                (angle / std::f32::consts::FRAC_PI_4) as usize % 8
+            };
+            let got = share(&|p| of(p) == sector);
+            assert!((got - 0.125).abs() < 0.01, "sector {sector}: {got}");
+        }
+        let (x2, y2) = (moment(&|p| p.x * p.x), moment(&|p| p.y * p.y));
+        assert!(
+            (x2 - 0.25).abs() < 2e-3 && (y2 - 0.25).abs() < 2e-3,
+            "{x2}, {y2}"
+        );
+    }
 }
