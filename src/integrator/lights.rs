@@ -689,18 +689,12 @@ mod tests {
     /// enough to hide a bias of a few percent inside their interval.
     #[test]
     fn mesh_lights_sample_points_uniformly_by_area() {
-        let big = [
-            Vec3::new(-0.9, 1.0, -0.6),
-            Vec3::new(0.3, 1.0, -0.6),
-            Vec3::new(-0.9, 1.0, 0.6),
-        ];
-        // Wound the other way: its geometric normal points away from p,
-        // and the two-sided light must still shine toward p.
-        let small = [
-            Vec3::new(0.4, 1.0, 0.0),
-            Vec3::new(0.4, 1.0, 0.3),
-            Vec3::new(0.7, 1.0, 0.0),
-        ];
+        // Corner a and edges to b and c, at height 1. The small one is
+        // wound the other way: its geometric normal points away from p, and
+        // the two-sided light must still shine toward p.
+        let triangle = |a: Vec3, ab: Vec3, ac: Vec3| [a, a + ab, a + ac];
+        let big = triangle(Vec3::new(-1.0, 1.0, -0.5), Vec3::X * 1.4, Vec3::Z);
+        let small = triangle(Vec3::new(0.5, 1.0, 0.1), Vec3::Z * 0.2, Vec3::X * 0.35);
         let area = |t: &[Vec3; 3]| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length();
         let total = area(&big) + area(&small);
         let radiance = [Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 8.0)];
