@@ -552,13 +552,13 @@ fn stats_count_each_stage_and_idle_stages_are_skipped() {
             "</visual_scene>",
             "<node id=\"dark-node\"><instance_light url=\"#dark\"/></node></visual_scene>",
         );
-    let probes = |name: &str, text: &str| {
+    let fixture_probes = |name: &str, text: &str| {
         let args = ["-q", "--stats", "-s", "1", "-m", "1", "-H"];
         stage_items(&render_text(name, text, &args).1, "probe (-H)").unwrap()
     };
     assert_eq!(
-        probes("stages-dark", &with_dark),
-        2 * probes("stages-lamp", lit)
+        fixture_probes("stages-dark", &with_dark),
+        2 * fixture_probes("stages-lamp", lit)
     );
 }
 

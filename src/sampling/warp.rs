@@ -300,9 +300,8 @@ mod tests {
     /// The concentric map sends a stratified grid of the square to points
     /// spread uniformly over the unit disk: the radial moments E[r²] = 1/2
     /// and E[r⁴] = 1/3, E[x²] = E[y²] = 1/4, and equal shares in eight
-    /// equal sectors. An odd grid
-    /// puts strata on the square's centre lines, where the map divides by
-    /// zero unless it handles the centre.
+    /// equal sectors. An odd grid puts strata on the square's centre
+    /// lines, where the map divides by zero unless it handles the centre.
     #[test]
     fn concentric_disk_is_uniform_over_the_disk() {
         const K: usize = 65;
@@ -336,12 +335,12 @@ mod tests {
             (r2 - 0.5).abs() < 2e-3 && (r4 - 1.0 / 3.0).abs() < 2e-3,
             "{r2}, {r4}"
         );
+        let sector_of = |p: &Vec2| {
+            let angle = p.y.atan2(p.x).rem_euclid(std::f32::consts::TAU);
+            (angle / std::f32::consts::FRAC_PI_4) as usize % 8
+        };
         for sector in 0..8 {
-            let of = |p: &Vec2| {
-                let angle = p.y.atan2(p.x).rem_euclid(std::f32::consts::TAU);
-                (angle / std::f32::consts::FRAC_PI_4) as usize % 8
-            };
-            let got = share(&|p| of(p) == sector);
+            let got = share(&|p| sector_of(p) == sector);
             assert!((got - 0.125).abs() < 0.01, "sector {sector}: {got}");
         }
         let (x2, y2) = (moment(&|p| p.x * p.x), moment(&|p| p.y * p.y));
