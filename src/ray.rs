@@ -307,4 +307,53 @@ mod tests {
             assert!((q - p).dot(n) > 0.0, "scale {s}");
         }
     }
+
+    #[test]
+    fn surface_reach_is_the_largest_coordinate_difference_to_a_corner() {
+        let p = Vec3::new(1.0, 2.0, 3.0);
+        let corners = [Vec3::new(0.5, 4.0, 3.0), Vec3::new(1.0, 2.0, -1.0)];
+        assert_eq!(surface_reach(p, &corners), 4.0);
+        assert_eq!(surface_reach(p, &corners[..1]), 2.0);
+        assert_eq!(surface_reach(p, &[]), 0.0);
+    }
+
+    /// The offset of a point on a triangle, for outside tools: the moved
+    /// point lies strictly on the normal's side of the triangle's exact
+    /// (f64) plane, and no farther from the point than twice the bound
+    /// γ₈·(|p|∞ + reach) it is built from, at every scale and 1e5 from
+    /// the origin (a tight offset keeps contact shadows).
+    #[test]
+    fn offset_from_surface_clears_the_plane_by_little() {
+        let unit = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.1, -0.2),
+            Vec3::new(0.3, 0.9, 0.4),
+        ];
+        for &(s, t) in &[
+            (1e-6f32, Vec3::ZERO),
+            (1.0, Vec3::ZERO),
+            (1e4, Vec3::ZERO),
+            (1.0, Vec3::new(1e5, -1e5, 3e4)),
+        ] {
+            let [a, b, c] = unit.map(|v| s * v + t);
+            let n = (b - a).cross(c - a).normalize();
+            let (ad, bd, cd) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+            let nd = (bd - ad).cross(cd - ad);
+            for (u, v) in [(0.2f32, 0.3f32), (0.6, 0.35), (0.01, 0.01), (0.0, 0.0)] {
+                let p = a + u * (b - a) + v * (c - a);
+                let reach = surface_reach(p, &[a, b, c]);
+                let bound = gamma(8) * (p.abs().max_element() + reach);
+                for side in [n, -n] {
+                    let q = offset_from_surface(p, side, reach);
+                    let height = (q.as_dvec3() - ad).dot(nd) * side.as_dvec3().dot(nd).signum();
+                    assert!(height > 0.0, "scale {s}, at {t}: ({u}, {v}) not cleared");
+                    let moved = (q - p).abs().max_element();
+                    assert!(
+                        moved <= 2.0 * bound,
+                        "scale {s}, at {t}: ({u}, {v}) moved {moved:e}, bound {bound:e}"
+                    );
+                }
+            }
+        }
+    }
 }

@@ -444,28 +444,35 @@ mod tests {
         }
     }
 
+    /// Ties between axes, negative and −0 components, tiny magnitudes.
+    const DIRECTIONS: [Vec3; 9] = [
+        Vec3::new(1.0, 1.0, 1.0),
+        Vec3::new(-1.0, 1.0, 0.5),
+        Vec3::new(0.5, -2.0, 2.0),
+        Vec3::new(0.0, -0.0, -3.0),
+        Vec3::new(-0.0, 0.7, -0.7),
+        Vec3::new(3.0, -3.0, 0.1),
+        Vec3::new(1e-30, -2e-30, 5e-31),
+        Vec3::new(-0.3, -0.4, -0.5),
+        Vec3::new(2.0, 0.0, -0.0),
+    ];
+
+    /// Eight of [`DIRECTIONS`] from `shift` on, and their lane setup.
+    fn setup(shift: usize) -> ([Vec3; WIDTH], RayTriLanes) {
+        let n = DIRECTIONS.len();
+        let d: [Vec3; WIDTH] = std::array::from_fn(|l| DIRECTIONS[(l + shift) % n]);
+        let axis = |k: usize| Lanes::from(d.map(|v| v[k]));
+        let d8 = [axis(0), axis(1), axis(2)];
+        (d, RayTriLanes::new(d8, d8.map(|x| Lanes::ONE / x)))
+    }
+
     #[test]
     fn lane_setup_is_the_scalar_setup() {
-        // Ties between axes, negative and −0 components, each direction
-        // in every lane position.
-        let dirs = [
-            Vec3::new(1.0, 1.0, 1.0),
-            Vec3::new(-1.0, 1.0, 0.5),
-            Vec3::new(0.5, -2.0, 2.0),
-            Vec3::new(0.0, -0.0, -3.0),
-            Vec3::new(-0.0, 0.7, -0.7),
-            Vec3::new(3.0, -3.0, 0.1),
-            Vec3::new(1e-30, -2e-30, 5e-31),
-            Vec3::new(-0.3, -0.4, -0.5),
-            Vec3::new(2.0, 0.0, -0.0),
-        ];
-        for shift in 0..dirs.len() {
-            let d: [Vec3; WIDTH] = std::array::from_fn(|l| dirs[(l + shift) % dirs.len()]);
+        // Each direction in every lane position.
+        for shift in 0..DIRECTIONS.len() {
+            let (d, lanes) = setup(shift);
             let o: [Vec3; WIDTH] =
                 std::array::from_fn(|l| Vec3::new(l as f32, -2.0 * l as f32, 0.5));
-            let axis = |k: usize| Lanes::from(d.map(|v| v[k]));
-            let d8 = [axis(0), axis(1), axis(2)];
-            let lanes = RayTriLanes::new(d8, d8.map(|x| Lanes::ONE / x));
             for l in 0..WIDTH {
                 let (got, want) = (lanes.ray(l, o[l]), scalar_ray_tri(o[l], d[l]));
                 assert_eq!(got.k, want.k, "{:?}", d[l]);
@@ -483,5 +490,31 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Rays make one packet exactly when they share the permutation of
+    /// the triangle test (major axis and its sign), and the packet has
+    /// it: otherwise packets fall back to ray-by-ray tests, which give the
+    /// same hits but forgo the speed they exist for.
+    #[test]
+    fn rays_make_a_packet_exactly_when_they_share_a_permutation() {
+        let o = [Lanes::ZERO; 3];
+        let mut packets = 0;
+        for shift in 0..DIRECTIONS.len() {
+            let (d, lanes) = setup(shift);
+            for active in 1u32..1 << WIDTH {
+                let ks: Vec<[usize; 3]> = crate::lanes::each(active)
+                    .map(|l| scalar_ray_tri(Vec3::ZERO, d[l]).k)
+                    .collect();
+                let shared = ks.iter().all(|&k| k == ks[0]);
+                let packet = lanes.packet(active, &o);
+                assert_eq!(packet.is_some(), shared, "rays {active:08b}: {ks:?}");
+                if let Some(p) = packet {
+                    assert_eq!(p.k, ks[0], "rays {active:08b}");
+                    packets += usize::from(ks.len() > 1);
+                }
+            }
+        }
+        assert!(packets > 0, "no packet of two or more rays was tested");
     }
 }
