@@ -223,4 +223,70 @@ mod tests {
         assert_eq!(image.pixels[0], Vec3::splat(3e38));
         assert_eq!(image.non_finite_count(), 0);
     }
+
+    /// The adaptive test's sample illuminance, x = 0.2126R + 0.7152G +
+    /// 0.0722B (Rec. 709 luminance), as the reference defines it: each
+    /// primary gets its own weight, and the map is linear.
+    #[test]
+    fn illuminance_weighs_the_primaries_as_rec709() {
+        let close = |a: f32, b: f32| (a - b).abs() <= 1e-6 * b.abs().max(1.0);
+        for (c, w) in [(Vec3::X, 0.2126), (Vec3::Y, 0.7152), (Vec3::Z, 0.0722)] {
+            assert!(close(illuminance(3.0 * c), 3.0 * w), "{c}");
+        }
+        assert!(close(illuminance(Vec3::ONE), 1.0));
+        let (a, b) = (Vec3::new(0.3, 2.0, 0.7), Vec3::new(5.0, 0.25, 1.5));
+        assert!(close(illuminance(a + b), illuminance(a) + illuminance(b)));
+    }
+
+    /// A stored pixel is the mean of its samples and its variance that of
+    /// the mean, s²/n with the unbiased s² (n − 1); a pixel with no
+    /// sample (a tile an interrupted render never reached) is black with
+    /// no variance, and one sample has no variance. The tile lands at its
+    /// place in an image covering part of the frame.
+    #[test]
+    fn stored_pixels_are_means_with_the_variance_of_the_mean() {
+        let area = Tile {
+            x0: 4,
+            y0: 2,
+            width: 4,
+            height: 3,
+        };
+        let tile = Tile {
+            x0: 5,
+            y0: 3,
+            width: 3,
+            height: 1,
+        };
+        let mut film = TileFilm::new(tile);
+        let one = Vec3::new(0.5, 2.0, 4.0);
+        film.add(1, &[one]);
+        let several = [1.0f32, 2.0, 6.0].map(|x| Vec3::new(x, 2.0 * x, -x));
+        film.add(2, &several);
+        let mut image = Image::new(area.width, area.height);
+        image.store(&film, area);
+        // Tile pixel k is image pixel (1 + k, 1).
+        let at = |k: usize| image.width as usize + 1 + k;
+        assert_eq!(
+            (image.pixels[at(0)], image.variance[at(0)]),
+            (Vec3::ZERO, Vec3::ZERO)
+        );
+        assert_eq!(image.samples[at(0)], 0);
+        assert_eq!(
+            (image.pixels[at(1)], image.variance[at(1)]),
+            (one, Vec3::ZERO)
+        );
+        assert_eq!(image.samples[at(1)], 1);
+        // Samples 1, 2, 6: mean 3, s² = (4 + 1 + 9) / 2 = 7, s²/n = 7/3.
+        let scale = Vec3::new(1.0, 2.0, -1.0);
+        assert!((image.pixels[at(2)] - 3.0 * scale).abs().max_element() < 1e-6);
+        let want = 7.0 / 3.0 * scale * scale;
+        assert!((image.variance[at(2)] - want).abs().max_element() < 1e-5);
+        assert_eq!(image.samples[at(2)], 3);
+        // Nothing else was written.
+        let written = [at(0), at(1), at(2)];
+        for i in (0..image.pixels.len()).filter(|i| !written.contains(i)) {
+            assert_eq!(image.samples[i], 0);
+            assert_eq!(image.pixels[i], Vec3::ZERO);
+        }
+    }
 }
