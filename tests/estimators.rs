@@ -820,6 +820,25 @@ fn area_light_shows_its_radiance_to_the_side_it_faces_and_nothing_behind() {
     }
     assert!(seen > 20, "{seen} pixels on the light");
 
+    // From above, camera rays meet the light's back: black, as is
+    // everything else in a scene that holds only the light.
+    let b = Builder {
+        lights: vec![light.clone()],
+        ..Builder::default()
+    };
+    let behind = b.build(camera(
+        Vec3::new(0.0, 2.0, 0.0),
+        Vec3::NEG_Y,
+        Vec3::Z,
+        40.0,
+        H,
+    ));
+    let image = render(&behind, &settings(W, H, 4, 2), 2);
+    assert!(
+        image.pixels.iter().all(|p| *p == Vec3::ZERO),
+        "the light's back shows light to camera rays"
+    );
+
     // A ceiling at height 2 facing down at the light's back, seen from
     // between them: black at any depth, by light sampling and by -H.
     let mut b = Builder::default();

@@ -567,6 +567,24 @@ mod tests {
         }
     }
 
+    /// `--stats` reports the records' memory: one 64-byte record per
+    /// triangle, and not a whole spare allocation more.
+    #[test]
+    fn records_report_their_memory() {
+        let n = 100;
+        let tris = Triangles {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            indices: vec![[0, 1, 2]; n],
+            material: vec![0; n],
+            ..Triangles::default()
+        };
+        let bytes = TriangleRecords::new(&tris).memory_bytes();
+        assert!(
+            (64 * n..128 * n).contains(&bytes),
+            "{bytes} bytes for {n} records"
+        );
+    }
+
     #[test]
     fn normals_of_huge_and_tiny_triangles_are_theirs_not_the_fallback() {
         // Edges of 1e10 square to 1e20 in the cross product and to 1e40,
