@@ -491,6 +491,39 @@ mod tests {
         assert!(to_unit_float(u32::MAX) < 1.0);
     }
 
+    /// Strict avalanche (Webster and Tavares): flipping any one input bit
+    /// of the hash behind every draw flips each output bit half the time.
+    /// A shift turned the wrong way leaves the high input bits no path to
+    /// the low output bits (multiplication carries only upward), and
+    /// neighbouring counters — pixels, samples, dimensions — would then
+    /// share bits of their draws.
+    #[test]
+    fn hash_avalanches() {
+        const N: u32 = 4096;
+        let mut flips = [[0u32; 32]; 32];
+        let mut x = 0x1234_5678u32;
+        for _ in 0..N {
+            x = x.wrapping_mul(0x2c1b_3c6d).wrapping_add(0x297a_2d39);
+            let h = hash(x);
+            for (bit, counts) in flips.iter_mut().enumerate() {
+                let changed = h ^ hash(x ^ (1 << bit));
+                for (out, count) in counts.iter_mut().enumerate() {
+                    *count += (changed >> out) & 1;
+                }
+            }
+        }
+        // Each count is Binomial(N, ½): σ = √N / 2 = 32; 6σ is 4.7% of N.
+        let bound = 6.0 * (N as f64).sqrt() / 2.0;
+        for (bit, counts) in flips.iter().enumerate() {
+            for (out, &count) in counts.iter().enumerate() {
+                assert!(
+                    (count as f64 - N as f64 / 2.0).abs() < bound,
+                    "input bit {bit} flips output bit {out} {count} times in {N}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn pixel_offsets_are_stratified_for_power_of_two_prefixes() {
         // A (0,2)-sequence puts exactly one of the first 16 points in each
@@ -626,8 +659,10 @@ mod tests {
     #[test]
     fn batched_draws_are_the_scalar_draws() {
         // 13 streams: one full group of eight and a partial one, at
-        // different pairs and samples (large ones, so indices wrap).
-        let counts = [1u32, 4, 3, 1, 16];
+        // different pairs and samples (large ones, so indices wrap). The
+        // waves ask for 3, then 25, then 2 draws per stream, so the
+        // buffers must grow between the first two.
+        let waves: [&[u32]; 3] = [&[1, 2], &[1, 4, 3, 1, 16], &[2]];
         let mut streams: Vec<SampleStream> = (0..13u32)
             .map(|i| {
                 let mut s = SampleStream::new(21, 1000 + i, i * 0x1357_9bdf);
@@ -639,8 +674,8 @@ mod tests {
             .collect();
         let mut expected = streams.clone();
         let mut draws = VertexDraws::default();
-        for _ in 0..2 {
-            draws.draw(&mut streams, counts);
+        for counts in waves {
+            draws.draw(&mut streams, counts.iter().copied());
             for (i, stream) in expected.iter_mut().enumerate() {
                 for (b, &count) in counts.iter().enumerate() {
                     let block = stream.next_2d_block(count);
