@@ -311,7 +311,28 @@ fn read_exr(path: &Path) -> Result<Image> {
 
 #[cfg(test)]
 mod tests {
-    use super::ToneCurve;
+    use super::{ToneCurve, rate_colour};
+    use glam::Vec3;
+
+    /// Blue at no samples, green at half of `-s`, red at all of it,
+    /// linear in between, and clamped outside [0, 1]. (The CLI test of
+    /// the rate image sees adaptive renders whose pixels stop early, so
+    /// only the blue half.)
+    #[test]
+    fn rate_colours_run_blue_green_red() {
+        let cases = [
+            (-1.0, Vec3::Z),
+            (0.0, Vec3::Z),
+            (0.25, Vec3::new(0.0, 0.5, 0.5)),
+            (0.5, Vec3::Y),
+            (0.75, Vec3::new(0.5, 0.5, 0.0)),
+            (1.0, Vec3::X),
+            (2.0, Vec3::X),
+        ];
+        for (rate, colour) in cases {
+            assert_eq!(rate_colour(rate), colour, "rate {rate}");
+        }
+    }
 
     #[test]
     fn decode_inverts_encode() {

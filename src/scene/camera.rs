@@ -174,6 +174,68 @@ impl CameraView {
 mod tests {
     use super::*;
 
+    fn close(a: (f32, f32), b: (f32, f32)) -> bool {
+        (a.0 - b.0).abs() < 1e-3 && (a.1 - b.1).abs() < 1e-3
+    }
+
+    /// The fields of view a scene states, with the reference's defaults
+    /// (50° across, 35° up), the vertical one from the aspect ratio when
+    /// only that is given, and the 800×600 fit widening the narrower.
+    #[test]
+    fn fields_of_view_follow_the_reference_rules() {
+        let optics = |xfov, yfov, aspect_ratio| Perspective {
+            xfov,
+            yfov,
+            aspect_ratio,
+            ..Perspective::default()
+        };
+        // tan 20° / 0.5 = 0.72794, whose angle doubled is 72.105°.
+        let cases = [
+            (optics(Some(30.0), Some(60.0), Some(2.0)), (30.0, 60.0)),
+            (optics(Some(40.0), None, Some(0.5)), (40.0, 72.1048)),
+            (optics(Some(40.0), None, Some(0.0)), (40.0, 35.0)),
+            (optics(Some(40.0), None, Some(-1.0)), (40.0, 35.0)),
+            (optics(None, None, None), (50.0, 35.0)),
+        ];
+        for (optics, fov) in cases {
+            assert!(close(optics.fov_degrees(), fov), "{optics:?}");
+        }
+        // Fitted: a tall view keeps its vertical field (the horizontal
+        // widens to 4:3); a wide one keeps its horizontal field (the
+        // vertical follows: tan 45° · 3/4 is tan 36.87°).
+        let fitted = |optics: Perspective| {
+            Camera::place(Vec3::Z, &optics, -Vec3::ONE, Vec3::ONE)
+                .view(800, 600)
+                .fov_degrees()
+        };
+        // 2·atan(tan 30° · 4/3) = 75.178°.
+        assert!(close(
+            fitted(optics(Some(30.0), Some(60.0), None)),
+            (75.1782, 60.0)
+        ));
+        assert!(close(
+            fitted(optics(Some(90.0), Some(30.0), None)),
+            (90.0, 73.7398)
+        ));
+    }
+
+    /// The camera backs off 1.5 diagonals from the scene's centre, or one
+    /// unit where that distance is 0 (a scene that is one point) or not
+    /// finite (bounds past f32's range).
+    #[test]
+    fn placement_backs_off_one_unit_when_the_diagonal_is_no_distance() {
+        let optics = Perspective::default();
+        let p = Vec3::new(1.0, 2.0, 3.0);
+        let camera = Camera::place(Vec3::X, &optics, p, p);
+        assert_eq!((camera.target, camera.position), (p, p + Vec3::X));
+        let huge = Vec3::splat(3e38);
+        let camera = Camera::place(Vec3::X, &optics, -huge, huge);
+        assert_eq!((camera.target, camera.position), (Vec3::ZERO, Vec3::X));
+        let camera = Camera::place(Vec3::X, &optics, -Vec3::ONE, Vec3::ONE);
+        let diagonal = 1.5 * (2.0 * Vec3::ONE).length();
+        assert_eq!(camera.position, diagonal * Vec3::X);
+    }
+
     /// Every lane of `directions_x8` holds, bit for bit, the product
     /// `camera_to_world · (sx, sy, −1)` for its own film position, and the
     /// scalar `direction` is that lane.
