@@ -249,6 +249,9 @@ mod tests {
                 }
             })
             .collect();
+        // A broken generator would make every box alike, and the tests
+        // built on these trees would then compare trivial trees.
+        assert!(boxes.windows(2).any(|w| w[0] != w[1]), "degenerate fixture");
         let params = BuildParams {
             sah: true,
             bins: 8,
