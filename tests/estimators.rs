@@ -802,9 +802,15 @@ fn area_light_shows_its_radiance_to_the_side_it_faces_and_nothing_behind() {
         dim_y: Vec3::Z,
         radiance: Vec3::splat(radiance),
     };
-    let mut b = Builder::default();
-    b.lights.push(light.clone());
-    let below = b.build(camera(Vec3::ZERO, Vec3::Y, Vec3::Z, 40.0, H));
+    // The light alone, seen from `eye` looking along `forward`.
+    let light_only = |eye: Vec3, forward: Vec3| {
+        let b = Builder {
+            lights: vec![light.clone()],
+            ..Builder::default()
+        };
+        b.build(camera(eye, forward, Vec3::Z, 40.0, H))
+    };
+    let below = light_only(Vec3::ZERO, Vec3::Y);
     let image = render(&below, &settings(W, H, 4, 2), 2);
     let mut seen = 0;
     for row in 0..H {
@@ -822,17 +828,7 @@ fn area_light_shows_its_radiance_to_the_side_it_faces_and_nothing_behind() {
 
     // From above, camera rays meet the light's back: black, as is
     // everything else in a scene that holds only the light.
-    let b = Builder {
-        lights: vec![light.clone()],
-        ..Builder::default()
-    };
-    let behind = b.build(camera(
-        Vec3::new(0.0, 2.0, 0.0),
-        Vec3::NEG_Y,
-        Vec3::Z,
-        40.0,
-        H,
-    ));
+    let behind = light_only(Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Y);
     let image = render(&behind, &settings(W, H, 4, 2), 2);
     assert!(
         image.pixels.iter().all(|p| *p == Vec3::ZERO),
