@@ -300,3 +300,69 @@ impl<'a, 'i> Ids<'a, 'i> {
         Ok(target)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::innermost_open_element;
+
+    /// The name and start offset of the element left open at the end of `text`.
+    fn open(text: &str) -> Option<(&str, usize)> {
+        innermost_open_element(text)
+    }
+
+    #[test]
+    fn the_innermost_element_still_open_is_named_with_its_start() {
+        let text = "<a>\n  <b x=\"1\">\n    <c>1 2";
+        assert_eq!(open(text), Some(("c", text.find("<c>").unwrap())));
+        // Closed and self-closing elements are not open; the parent is.
+        let text = "<a><b></b><c/><d  />\n<e/>";
+        assert_eq!(open(text), Some(("a", 0)));
+        // A closing tag closes the innermost open element (however spelt:
+        // this is for messages, the parser has judged the nesting).
+        assert_eq!(open("<a><b><c></c></b>"), Some(("a", 0)));
+        assert_eq!(open("<a></a>"), None);
+        assert_eq!(open(""), None);
+        assert_eq!(open("no markup at all"), None);
+    }
+
+    #[test]
+    fn namespaces_attributes_and_whitespace_do_not_change_the_name() {
+        assert_eq!(open("<c:node id=\"n\">"), Some(("node", 0)));
+        assert_eq!(open("<a\n  id=\"x\">"), Some(("a", 0)));
+        assert_eq!(open("<a\tid='x'>"), Some(("a", 0)));
+        // A '>' or "/>" inside a quoted attribute value ends nothing.
+        let text = "<a><b t=\"x > y\" u='/>'><c";
+        assert_eq!(open(text), Some(("b", 3)));
+        let text = "<a><b t='\"' u=\"'/>\">";
+        assert_eq!(open(text), Some(("b", 3)));
+    }
+
+    #[test]
+    fn comments_cdata_declarations_and_instructions_hold_no_tags() {
+        let text = "<?xml version=\"1.0\"?><!DOCTYPE x><a><!-- <b> --><![CDATA[<c>]]><?pi <d>?>";
+        assert_eq!(open(text), Some(("a", text.find("<a>").unwrap())));
+        let text = "<a><!-- </a> -->";
+        assert_eq!(open(text), Some(("a", 0)));
+        let text = "<a><![CDATA[</a>]]>";
+        assert_eq!(open(text), Some(("a", 0)));
+        let text = "<a><?pi </a> ?>";
+        assert_eq!(open(text), Some(("a", 0)));
+    }
+
+    #[test]
+    fn markup_cut_off_midway_ends_the_scan() {
+        // A tag, comment, section or instruction the file ends inside: the
+        // element open before it is the answer.
+        for tail in [
+            "<b id=\"x",
+            "<b",
+            "<!-- <b>",
+            "<![CDATA[<b>",
+            "<?pi <b>",
+            "<!DOC <b",
+        ] {
+            let text = format!("<a>{tail}");
+            assert_eq!(open(&text), Some(("a", 0)), "{text:?}");
+        }
+    }
+}
