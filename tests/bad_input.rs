@@ -11,47 +11,8 @@ use std::process::Command;
 
 use wavepath::scene::collada::{LoadError, load_file, load_str};
 
-/// A minimal valid scene: Y_UP, a camera, a point light, one effect and
-/// material, one textured triangle (a `<polylist>`) and one CGL sphere.
-/// Errors report lines of this text: `fixtures/minimal.dae` line for line.
-const BASE: &str = include_str!("fixtures/minimal.dae");
-
-/// The name errors report for scenes loaded from strings.
-const NAME: &str = "scenes/bad.dae";
-
-/// `text` with each `from` (which must occur exactly once) replaced by its `to`.
-fn edit_text(text: &str, pairs: &[(&str, &str)]) -> String {
-    let mut out = text.to_string();
-    for &(from, to) in pairs {
-        let n = out.matches(from).count();
-        assert_eq!(n, 1, "{from:?} occurs {n} times, expected exactly once");
-        out = out.replacen(from, to, 1);
-        assert!(out.contains(to));
-    }
-    assert_ne!(out, text, "the edits changed nothing");
-    out
-}
-
-/// [`BASE`] with the given edits.
-fn edits(pairs: &[(&str, &str)]) -> String {
-    edit_text(BASE, pairs)
-}
-
-/// [`BASE`] with `from` replaced by `to`.
-fn edit(from: &str, to: &str) -> String {
-    edits(&[(from, to)])
-}
-
-/// 1-based line of the one occurrence of `needle` in `text`.
-fn line_of(text: &str, needle: &str) -> u32 {
-    let n = text.matches(needle).count();
-    assert_eq!(
-        n, 1,
-        "marker {needle:?} occurs {n} times, expected exactly once"
-    );
-    let at = text.find(needle).unwrap();
-    text[..at].matches('\n').count() as u32 + 1
-}
+mod common;
+use common::fixture::{BASE, NAME, edit, edits, line_of};
 
 /// Loads `text`, which must fail without panicking.
 fn load_err(text: &str) -> LoadError {
@@ -230,6 +191,57 @@ fn truncated_dragon() {
     cli_rejects(&path, &format!("dragon_truncated.dae:{last_line}:"));
 }
 
+#[test]
+fn truncated_files_name_the_element_they_end_inside() {
+    // BASE cut off just after `cut` (and blank lines added, as an editor
+    // might): the error is on the last line that holds text and names the
+    // innermost element left open, with the line it was opened on.
+    for (cut, element, opened) in [
+        (
+            r#"count="9">0 0 0 1"#,
+            "float_array",
+            r#"<float_array id="tri-pos-array""#,
+        ),
+        (
+            r#"<float_array id="tri-pos-ar"#,
+            "source",
+            r#"<source id="tri-pos">"#,
+        ),
+        (
+            r##"<instance_effect url="#fx"/>"##,
+            "material",
+            r#"<material id="mat""#,
+        ),
+        (
+            "<zfar>100</zfar>\n          </perspective>",
+            "technique_common",
+            "<technique_common>\n          <perspective>",
+        ),
+    ] {
+        let at = BASE.find(cut).unwrap() + cut.len();
+        let text = format!("{}\n\n  \n", &BASE[..at]);
+        let e = load_err(&text);
+        let last_line = BASE[..at].lines().count() as u32;
+        assert_eq!(e.path, Path::new(NAME), "{e}");
+        assert_eq!(e.line, Some(last_line), "{cut:?}: {e}");
+        assert_eq!(e.element.as_deref(), Some(element), "{cut:?}: {e}");
+        let want = format!(
+            "the file ends inside <{element}> (opened on line {}); is it truncated?",
+            line_of(BASE, opened)
+        );
+        assert!(e.message.contains(&want), "{cut:?}: {e}\n(lacks {want:?})");
+    }
+    // Cut inside the root's own start tag: nothing was opened yet.
+    let cut = "COLLADASchema";
+    let text = &BASE[..BASE.find(cut).unwrap() + cut.len()];
+    let e = load_err(text);
+    assert_eq!(e.line, Some(2), "{e}");
+    assert!(
+        e.message.contains("ends before the root element is closed"),
+        "{e}"
+    );
+}
+
 // ------------------------------------------------ counts vs. array lengths
 
 #[test]
@@ -270,6 +282,82 @@ fn accessor_stride_too_small() {
         "accessor",
         "at least 3 components",
     );
+}
+
+#[test]
+fn source_without_accessor_not_whole_tuples() {
+    // Without an accessor the numbers are packed x y z tuples: ten are not.
+    let text = edits(&[
+        (
+            r##"<technique_common>
+            <accessor source="#tri-pos-array" count="3" stride="3">
+              <param name="X" type="float"/>
+              <param name="Y" type="float"/>
+              <param name="Z" type="float"/>
+            </accessor>
+          </technique_common>"##,
+            "",
+        ),
+        (
+            r#"count="9">0 0 0 1 0 0 0 1 0<"#,
+            r#"count="10">0 0 0 1 0 0 0 1 0 7<"#,
+        ),
+    ]);
+    expect_at(
+        &text,
+        "float_array",
+        r#"count="10""#,
+        "10 numbers is not a whole number of 3-tuples",
+    );
+}
+
+#[test]
+fn polygons_and_triangles_lists_checked_against_their_counts() {
+    // <polygons>: one <p> per polygon, each a whole number of corners (3
+    // inputs each), as many as count says.
+    let polygons = |count: &str, p: &str| {
+        edits(&[
+            (
+                r#"<polylist material="grey-sym" count="1">"#,
+                &format!(r#"<polygons material="grey-sym" {count}>"#),
+            ),
+            ("<vcount>3</vcount>\n", ""),
+            ("<p>0 0 0 1 0 1 2 0 2</p>", p),
+            ("</polylist>", "</polygons>"),
+        ])
+    };
+    let ok = polygons(r#"count="1""#, "<p>0 0 0 1 0 1 2 0 2</p>");
+    assert_eq!(
+        load_str(&ok, Path::new(NAME))
+            .unwrap()
+            .geometry
+            .triangles
+            .len(),
+        1
+    );
+    expect_at(
+        &polygons(r#"count="2""#, "<p>0 0 0 1 0 1 2 0 2</p>"),
+        "polygons",
+        r#"count="2""#,
+        "count=\"2\" but 1 polygons are listed",
+    );
+    expect_at(
+        &polygons(r#"count="1""#, "<p>0 0 0 1 0 1 2 0</p>"),
+        "p",
+        "<p>0 0 0 1 0 1 2 0</p>",
+        "8 indices is not a whole number of 3-index corners",
+    );
+    // <triangles> with triangles to list but no <p>.
+    let text = edits(&[
+        (
+            r#"<polylist material="grey-sym" count="1">"#,
+            r#"<triangles material="grey-sym" count="1">"#,
+        ),
+        ("<vcount>3</vcount>\n", ""),
+        ("<p>0 0 0 1 0 1 2 0 2</p>", ""),
+        ("</polylist>", "</triangles>"),
+    ]);
+    expect_at(&text, "triangles", "<triangles ", "missing <p>");
 }
 
 #[test]
@@ -697,6 +785,22 @@ fn zero_rotation_axis() {
 }
 
 #[test]
+fn degenerate_lookat() {
+    // The eye on the point of interest, and an up vector along the view.
+    for lookat in [
+        "<lookat>1 2 3  1 2 3  0 1 0</lookat>",
+        "<lookat>0 0 0  0 5 0  0 -2 0</lookat>",
+    ] {
+        case(
+            "<rotate>0 1 0 30</rotate>",
+            lookat,
+            "lookat",
+            "degenerate lookat",
+        );
+    }
+}
+
+#[test]
 fn transform_overflows_the_mesh() {
     let text = edits(&[
         ("<rotate>0 1 0 30</rotate>", "<scale>1e30 1e30 1e30</scale>"),
@@ -778,6 +882,100 @@ fn instance_node_exponential_expansion() {
     assert!(e.message.contains("node instances"), "{e}");
 }
 
+#[test]
+fn nesting_and_instancing_limits_hold_at_their_stated_values() {
+    // The triangle's node inside `levels` plain nodes: at depth 256 (the
+    // stated limit) the scene loads, triangle and all; one level more is
+    // refused at the node too deep.
+    let nested = |levels: usize| {
+        edits(&[
+            (
+                r#"<node id="tri-node">"#,
+                &format!(r#"{}<node id="tri-node">"#, "<node>".repeat(levels)),
+            ),
+            (
+                r#"      <node id="ball-node">"#,
+                &format!(r#"{}<node id="ball-node">"#, "</node>".repeat(levels)),
+            ),
+        ])
+    };
+    let scene = load_str(&nested(256), Path::new(NAME)).unwrap();
+    assert_eq!(scene.geometry.triangles.len(), 1);
+    // Far deeper nesting is refused the same way, without the recursive
+    // walks (the primitive count first) running out of stack.
+    for levels in [257, 100_000] {
+        let e = load_err(&nested(levels));
+        assert_eq!(e.element.as_deref(), Some("node"), "{e}");
+        assert!(e.message.contains("nest deeper than 256 levels"), "{e}");
+    }
+    // Depth through <instance_node> counts alike: a chain of nodes, each
+    // instancing the next once, the last holding a triangle, hung under
+    // the lamp's node (depth 0), so node n_i is at depth i + 1.
+    let chain = |levels: usize| {
+        let mut nodes = String::new();
+        for i in 0..levels - 1 {
+            nodes.push_str(&format!(
+                r##"<node id="n{i}"><instance_node url="#n{}"/></node>"##,
+                i + 1
+            ));
+        }
+        nodes.push_str(&format!(
+            r##"<node id="n{}"><instance_geometry url="#tri"/></node>"##,
+            levels - 1
+        ));
+        edits(&[
+            (
+                "<library_visual_scenes>",
+                &format!("<library_nodes>{nodes}</library_nodes><library_visual_scenes>"),
+            ),
+            (
+                r#"<node id="lamp-node">"#,
+                r##"<node id="lamp-node"><instance_node url="#n0"/>"##,
+            ),
+        ])
+    };
+    let scene = load_str(&chain(256), Path::new(NAME)).unwrap();
+    assert_eq!(scene.geometry.triangles.len(), 2);
+    for levels in [257, 100_000] {
+        let e = load_err(&chain(levels));
+        assert_eq!(e.element.as_deref(), Some("node"), "{e}");
+        assert!(e.message.contains("nest deeper than 256 levels"), "{e}");
+    }
+
+    // Node instances: the four nodes of the scene, a hub instancing `mid`
+    // 1023 times and `leaf` `direct` times, and `mid` instancing `leaf`
+    // 1023 times: 4 + 1 + 1023 + 1023² + direct = 2^20 + direct − 1019.
+    let fanned = |direct: usize| {
+        let leaf = r##"<instance_node url="#leaf"/>"##;
+        let mid = r##"<instance_node url="#mid"/>"##;
+        edits(&[
+            (
+                "<library_visual_scenes>",
+                &format!(
+                    r#"<library_nodes><node id="mid">{}</node><node id="leaf"/></library_nodes><library_visual_scenes>"#,
+                    leaf.repeat(1023)
+                ),
+            ),
+            (
+                r#"      <node id="ball-node">"#,
+                &format!(
+                    r#"<node id="hub">{}{}</node><node id="ball-node">"#,
+                    mid.repeat(1023),
+                    leaf.repeat(direct)
+                ),
+            ),
+        ])
+    };
+    let scene = load_str(&fanned(1019), Path::new(NAME)).unwrap();
+    assert_eq!(scene.geometry.triangles.len(), 1);
+    let e = load_err(&fanned(1020));
+    assert_eq!(e.element.as_deref(), Some("node"), "{e}");
+    assert!(
+        e.message.contains("more than 1048576 node instances"),
+        "{e}"
+    );
+}
+
 /// An unusable material record is not fatal: grey diffuse plus a warning,
 /// as the reference does; a negative emission is an error.
 #[test]
@@ -832,6 +1030,12 @@ fn clipping_planes_are_checked_against_the_defaults_of_the_one_not_given() {
         ("<znear>5000</znear>", "", "zfar 1000 (the default)"),
         ("", "<zfar>0.0005</zfar>", "znear 0.001 (the default)"),
         ("", "<zfar>-1</zfar>", "must satisfy"),
+        // Equal planes leave no depth at all.
+        (
+            "<znear>2</znear>",
+            "<zfar>2</zfar>",
+            "must satisfy 0 ≤ znear < zfar",
+        ),
     ] {
         let text = edits(&[
             ("<znear>0.1</znear>", near),
@@ -890,7 +1094,9 @@ fn instancing_to_more_primitives_than_the_renderer_takes_is_refused_up_front() {
         r##"<instance_geometry url="#ball"/>"##,
         r##"<instance_light url="#lamp"/>"##,
     ] {
-        let text = with_doubling_chain(19, &leaf.repeat(129));
+        // The instances sit in a plain child node of the chain's end,
+        // which the count must enter too.
+        let text = with_doubling_chain(19, &format!("<node>{}</node>", leaf.repeat(129)));
         let e = expect_at(
             &text,
             "visual_scene",
