@@ -139,7 +139,6 @@ pub fn parse_mesh(
         positions,
         ..LocalMesh::default()
     };
-    let mut all_have_texcoords = true;
     let mut texcoords: Vec<[Vec2; 3]> = Vec::new();
 
     for list in mesh.children().filter(|c| c.is_element()) {
@@ -157,7 +156,6 @@ pub fn parse_mesh(
         // Resolve the inputs; VERTEX goes through <vertices>, which we already read.
         let mut inputs: Vec<ListInput> = Vec::new();
         let mut sources: Vec<Accessor> = Vec::new();
-        let mut texcoord_set: Option<String> = None;
         for input in children(list, "input") {
             let semantic = src.attr(input, "semantic")?.to_string();
             let offset = src
@@ -177,17 +175,15 @@ pub fn parse_mesh(
                     });
                 }
                 "NORMAL" | "TEXCOORD" => {
-                    if semantic == "TEXCOORD" {
-                        // Only the first texture coordinate set is used.
-                        let set = input.attribute("set").unwrap_or("0").to_string();
-                        if texcoord_set.get_or_insert(set.clone()) != &set {
-                            inputs.push(ListInput {
-                                semantic: String::new(),
-                                offset,
-                                source: usize::MAX,
-                            });
-                            continue;
-                        }
+                    // Only the first texture coordinate set is used; the
+                    // others are not even read.
+                    if semantic == "TEXCOORD" && inputs.iter().any(|i| i.semantic == "TEXCOORD") {
+                        inputs.push(ListInput {
+                            semantic: String::new(),
+                            offset,
+                            source: usize::MAX,
+                        });
+                        continue;
                     }
                     let source = ids.resolve(src, input, "source", "source")?;
                     let min = if semantic == "NORMAL" { 3 } else { 2 };
@@ -212,7 +208,6 @@ pub fn parse_mesh(
             .ok_or_else(|| src.error(list, "no <input semantic=\"VERTEX\">"))?;
         let stride = inputs.iter().map(|i| i.offset).max().unwrap_or(0) + 1;
         let texcoord_input = inputs.iter().find(|i| i.semantic == "TEXCOORD");
-        all_have_texcoords &= texcoord_input.is_some();
 
         // Gather the polygons as (vertex count, index slice) pairs.
         let count = src.usize_attr(list, "count")?;
@@ -369,7 +364,9 @@ pub fn parse_mesh(
             }
         }
     }
-    if all_have_texcoords && texcoords.len() == out.triangles.len() {
+    // Every triangle of a list with texture coordinates has them, so
+    // equal counts mean every list that made triangles had them.
+    if texcoords.len() == out.triangles.len() {
         out.texcoords = texcoords;
     }
     Ok((out, warnings))
