@@ -107,19 +107,24 @@ fn lookat_places_a_node_as_a_camera_looking_at_its_interest() {
     // which is not perpendicular to the view: the frame is x = right,
     // y = the up vector made perpendicular, z = back toward the eye, and
     // the origin is the eye. Here that is the identity frame at the eye.
-    let at = |lookat: &str| load(&edit("<rotate>0 1 0 30</rotate>", lookat));
+    // (A translation along z after it moves the flat triangle off its
+    // plane, so the frame's z column shows.)
+    let at = |lookat: &str| {
+        load(&edit(
+            "<rotate>0 1 0 30</rotate>",
+            &format!("{lookat}<translate>0 0 1</translate>"),
+        ))
+    };
+    let lift = Mat4::from_translation(Vec3::Z);
     let scene = at("<lookat>1 2 3  1 2 -7  0 5 1</lookat>");
-    assert_triangle_placed(
-        &scene,
-        Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0)),
-        "down -z",
-    );
+    let eye = Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0));
+    assert_triangle_placed(&scene, eye * lift, "down -z");
 
     // Looking along +x from the origin with up +z: right = forward × up =
     // −y, true up = +z, back = −x.
     let scene = at("<lookat>0 0 0  4 0 0  0 0 1</lookat>");
     let frame = Mat4::from_cols(-Vec4::Y, Vec4::Z, -Vec4::X, Vec4::W);
-    assert_triangle_placed(&scene, frame, "along +x");
+    assert_triangle_placed(&scene, frame * lift, "along +x");
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
 }
 
@@ -698,9 +703,10 @@ fn every_kind_of_primitive_list_is_triangulated_as_a_fan() {
 
 #[test]
 fn texture_coordinates_are_the_first_sets_and_only_where_every_list_has_them() {
-    // A second set (set="1", reversed coordinates) is not used.
+    // A second set (set="1") is neither used nor read: its source need
+    // not exist.
     let two_sets = INPUTS.to_string()
-        + r##"<input semantic="TEXCOORD" source="#tri-uv" offset="3" set="1"/>"##;
+        + r##"<input semantic="TEXCOORD" source="#no-such-uv" offset="3" set="1"/>"##;
     let p: Vec<String> = [0, 1, 2]
         .iter()
         .map(|k| format!("{k} 0 {k} {}", 4 - k))
@@ -728,6 +734,13 @@ fn texture_coordinates_are_the_first_sets_and_only_where_every_list_has_them() {
         assert_eq!(scene.geometry.triangles.len(), 2);
         assert!(scene.geometry.triangles.texcoords.is_empty());
     }
+    // A list without them that makes no triangles takes none away.
+    let lists = format!(
+        r#"<triangles count="1">{INPUTS}<p>{}</p></triangles><triangles count="0">{no_uv}<p></p></triangles>"#,
+        corners(&[0, 1, 2])
+    );
+    let scene = load(&with_mesh(&PENTAGON, &PENTAGON_UV, &lists));
+    assert_eq!(scene.geometry.triangles.texcoords, [[uv(0), uv(1), uv(2)]]);
 }
 
 #[test]
