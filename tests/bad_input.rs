@@ -848,19 +848,20 @@ fn instance_node_cycle() {
     );
 }
 
-/// [`BASE`] with a chain of `levels` nodes, each instancing the next
-/// twice, down to a node holding `leaf`: 2^levels instances of `leaf`,
-/// hung under the lamp's node.
-fn with_doubling_chain(levels: usize, leaf: &str) -> String {
+/// [`BASE`] with a chain of nodes n0 … n_links hung under the lamp's
+/// node (depth 0), so n_i is at depth i + 1: each instances the next once,
+/// the last `doubling` links twice, and n_links holds `end`.
+fn with_chain(links: usize, doubling: usize, end: &str) -> String {
     let mut chain = String::new();
-    for i in 0..levels {
+    for i in 0..links {
+        let next = format!(r##"<instance_node url="#n{}"/>"##, i + 1);
+        let copies = if i + doubling >= links { 2 } else { 1 };
         chain.push_str(&format!(
-            r##"<node id="n{i}"><instance_node url="#n{}"/><instance_node url="#n{}"/></node>"##,
-            i + 1,
-            i + 1
+            r#"<node id="n{i}">{}</node>"#,
+            next.repeat(copies)
         ));
     }
-    chain.push_str(&format!(r#"<node id="n{levels}">{leaf}</node>"#));
+    chain.push_str(&format!(r#"<node id="n{links}">{end}</node>"#));
     edits(&[
         (
             "<library_visual_scenes>",
@@ -871,6 +872,12 @@ fn with_doubling_chain(levels: usize, leaf: &str) -> String {
             r##"<node id="lamp-node"><instance_node url="#n0"/>"##,
         ),
     ])
+}
+
+/// A chain of `levels` links, each instancing the next twice, down to a
+/// node holding `leaf`: 2^levels instances of `leaf`.
+fn with_doubling_chain(levels: usize, leaf: &str) -> String {
+    with_chain(levels, levels, leaf)
 }
 
 #[test]
@@ -909,31 +916,10 @@ fn nesting_and_instancing_limits_hold_at_their_stated_values() {
         assert!(e.message.contains("nest deeper than 256 levels"), "{e}");
     }
     // Depth through <instance_node> counts alike: a chain of nodes, each
-    // instancing the next once, the last holding a triangle, hung under
-    // the lamp's node (depth 0), so node n_i is at depth i + 1.
-    let chain = |levels: usize| {
-        let mut nodes = String::new();
-        for i in 0..levels - 1 {
-            nodes.push_str(&format!(
-                r##"<node id="n{i}"><instance_node url="#n{}"/></node>"##,
-                i + 1
-            ));
-        }
-        nodes.push_str(&format!(
-            r##"<node id="n{}"><instance_geometry url="#tri"/></node>"##,
-            levels - 1
-        ));
-        edits(&[
-            (
-                "<library_visual_scenes>",
-                &format!("<library_nodes>{nodes}</library_nodes><library_visual_scenes>"),
-            ),
-            (
-                r#"<node id="lamp-node">"#,
-                r##"<node id="lamp-node"><instance_node url="#n0"/>"##,
-            ),
-        ])
-    };
+    // instancing the next once, the last (at depth `levels`) holding a
+    // triangle.
+    let triangle = r##"<instance_geometry url="#tri"/>"##;
+    let chain = |levels: usize| with_chain(levels - 1, 0, triangle);
     let scene = load_str(&chain(256), Path::new(NAME)).unwrap();
     assert_eq!(scene.geometry.triangles.len(), 2);
     for levels in [257, 100_000] {
@@ -941,6 +927,15 @@ fn nesting_and_instancing_limits_hold_at_their_stated_values() {
         assert_eq!(e.element.as_deref(), Some("node"), "{e}");
         assert!(e.message.contains("nest deeper than 256 levels"), "{e}");
     }
+    // The primitive count, taken before the walk, reaches that deepest
+    // level too: 20 doubling links make 2^20 instances of the end node
+    // (depth 256), whose 65 triangles add up to more than 2^26 (with the
+    // fixture's triangle, sphere and light, which counts two: 2^20 · 65 +
+    // 4). Were the end not counted, the walk would stop at the node-visit
+    // limit instead.
+    let e = load_err(&with_chain(255, 20, &triangle.repeat(65)));
+    assert_eq!(e.element.as_deref(), Some("visual_scene"), "{e}");
+    assert!(e.message.contains("add up to 68157444 primitives"), "{e}");
 
     // Node instances: the four nodes of the scene, a hub instancing `mid`
     // 1023 times and `leaf` `direct` times, and `mid` instancing `leaf`
