@@ -664,6 +664,43 @@ mod tests {
         }
     }
 
+    /// Uniform numbers in [0, 1) for the tests' random inputs.
+    struct Xorshift(u64);
+
+    impl Xorshift {
+        fn next(&mut self) -> f32 {
+            let s = &mut self.0;
+            *s ^= *s << 13;
+            *s ^= *s >> 7;
+            *s ^= *s << 17;
+            (*s >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
+    /// Checks that every node's box is exactly the union of its
+    /// primitives' boxes (tight: a looser box costs rays, a smaller one
+    /// loses hits) and its count their number; returns the box.
+    fn assert_tight(node: &BuildNode, order: &[u32], prims: &[Aabb]) -> Aabb {
+        let (union, count) = match node {
+            BuildNode::Leaf { start, count, .. } => {
+                let ids = &order[*start as usize..(*start + *count) as usize];
+                let union = ids
+                    .iter()
+                    .map(|&id| prims[id as usize])
+                    .reduce(|a, b| a.union(&b))
+                    .expect("an empty leaf");
+                (union, *count)
+            }
+            BuildNode::Inner { children, .. } => {
+                let [l, r] = [0, 1].map(|k| assert_tight(&children[k], order, prims));
+                (l.union(&r), children[0].count() + children[1].count())
+            }
+        };
+        assert_eq!(*node.bounds(), union);
+        assert_eq!(node.count(), count);
+        union
+    }
+
     #[test]
     fn every_primitive_in_exactly_one_leaf() {
         let bounds: Vec<Aabb> = (0..10_000)
@@ -685,10 +722,12 @@ mod tests {
                 top_slots: 8,
             };
             let (root, order) = build(&bounds, 5000, params);
+            let root = root.unwrap();
             let mut seen = Vec::new();
-            leaf_ids(&root.unwrap(), &order, &mut seen);
+            leaf_ids(&root, &order, &mut seen);
             seen.sort();
             assert_eq!(seen, (0..10_000).collect::<Vec<u32>>());
+            assert_tight(&root, &order, &bounds);
         }
     }
 
@@ -697,13 +736,8 @@ mod tests {
     /// side empty) and stops at four primitives or fewer.
     #[test]
     fn midpoint_build_splits_at_the_centroid_midpoint_into_leaves_of_four() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = Xorshift(0x2545_f491_4f6c_dd1d);
+        let mut next = || rng.next();
         let bounds: Vec<Aabb> = (0..3000)
             .map(|_| {
                 // Clustered along x so that midpoints and medians differ.
@@ -890,6 +924,76 @@ mod tests {
         assert_eq!(pieces, (0..10).collect::<Vec<u32>>());
     }
 
+    /// The parts `isolate_large` makes of `bounds` (all triangles) with
+    /// `slots` root slots, each as sorted ids; the rest last.
+    fn isolated_parts(bounds: &[Aabb], slots: usize) -> Option<Vec<Vec<u32>>> {
+        let bounds: Vec<Bounds> = bounds.iter().map(Bounds::from).collect();
+        let ctx = Ctx {
+            bounds: &bounds,
+            centroids: &[],
+            triangle_count: bounds.len() as u32,
+            params: sah(slots),
+        };
+        let mut order: Vec<u32> = (0..bounds.len() as u32).collect();
+        let parts = isolate_large(&ctx, &mut order)?;
+        let mut rest = &order[..];
+        Some(
+            parts
+                .iter()
+                .map(|&len| {
+                    let (part, tail) = rest.split_at(len);
+                    rest = tail;
+                    let mut part = part.to_vec();
+                    part.sort();
+                    part
+                })
+                .collect(),
+        )
+    }
+
+    #[test]
+    fn flat_pieces_are_clustered_flattest_first_while_flat() {
+        // The room's floor tilted by a quarter millimetre over its 2 m:
+        // its box holds 1e-3 m³, a sixth of the flat limit (1e-3 of the
+        // room's 6 m³); still a piece of its own.
+        let mut bounds = room();
+        for b in &mut bounds[..2] {
+            b.max.y = 0.00025;
+        }
+        let mut parts = isolated_parts(&bounds, 8).unwrap();
+        parts[..5].sort();
+        let walls: Vec<Vec<u32>> = (0..5).map(|w| vec![2 * w, 2 * w + 1]).collect();
+        assert_eq!(parts[..5], walls[..]);
+
+        // Three floor-sized layers A (id 1), B (id 10) and C (id 0) at
+        // heights 0, 1 mm and 2.2 mm: A with B or B with C is flat (4.0
+        // and 4.8 dm³), all three are not. The flattest pair merges first,
+        // and then C cannot join.
+        let mut bounds = room();
+        let layer = |y: f32| Aabb {
+            min: Vec3::new(-1.0, y, -1.0),
+            max: Vec3::new(1.0, y, 1.0),
+        };
+        bounds[0] = layer(0.0022);
+        bounds[1] = layer(0.0);
+        bounds.insert(10, layer(0.001));
+        let parts = isolated_parts(&bounds, 8).unwrap();
+        assert!(parts.contains(&vec![1, 10]), "{parts:?}");
+        assert!(parts.contains(&vec![0]), "{parts:?}");
+
+        // A floor alone takes two slots: itself and the rest.
+        let floor_only: Vec<Aabb> = room()
+            .into_iter()
+            .enumerate()
+            .filter(|&(i, _)| !(2..10).contains(&i))
+            .map(|(_, b)| b)
+            .collect();
+        let parts = isolated_parts(&floor_only, 2).unwrap();
+        assert_eq!(parts[0], [0, 1]);
+        assert_eq!(parts[1].len(), 200);
+        assert_eq!(isolated_parts(&floor_only, 1), None);
+    }
+
     #[test]
     fn isolation_keeps_to_the_root_slots() {
         // Five walls and the rest fit in six slots exactly...
@@ -905,5 +1009,276 @@ mod tests {
         leaves(&root.unwrap(), &order, &mut a);
         leaves(&plain.unwrap(), &plain_order, &mut b);
         assert_eq!(a.len(), b.len());
+    }
+    /// The SAH's price of a leaf of `n` primitives per unit of half area:
+    /// whole SIMD groups.
+    fn group_cost(n: usize, params: &BuildParams) -> f32 {
+        (n.div_ceil(params.lanes) * params.lanes) as f32
+    }
+
+    /// Half the surface area, computed here apart from the builder's.
+    fn half_area(b: &Aabb) -> f32 {
+        let d = b.diagonal();
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+
+    /// The least cost of splitting `prims` into the first k and the rest
+    /// of their centroid order along some axis, between distinct
+    /// centroids: a full sweep, which sees every split the binned SAH can
+    /// (and more, unless each bin holds one distinct centroid).
+    fn full_sweep_cost(prims: &[Aabb], params: &BuildParams) -> f32 {
+        let n = prims.len();
+        let mut best = f32::INFINITY;
+        for axis in 0..3 {
+            let mut sorted = prims.to_vec();
+            sorted.sort_by(|a, b| a.center()[axis].total_cmp(&b.center()[axis]));
+            let mut suffix = sorted.clone();
+            for k in (0..n - 1).rev() {
+                suffix[k] = suffix[k].union(&suffix[k + 1]);
+            }
+            let mut prefix = sorted[0];
+            for k in 1..n {
+                if sorted[k].center()[axis] != sorted[k - 1].center()[axis] {
+                    let cost = half_area(&prefix) * group_cost(k, params)
+                        + half_area(&suffix[k]) * group_cost(n - k, params);
+                    best = best.min(cost);
+                }
+                prefix = prefix.union(&sorted[k]);
+            }
+        }
+        best
+    }
+
+    /// The binned SAH's root decision against a full sweep, on inputs whose
+    /// centroids fall one per bin on every axis (a random permutation of
+    /// the 32 bin centres per axis, at a random spacing; boxes of random
+    /// extent around them; the last one on some axis 30 times as large, so
+    /// that peeling it off is often best), where the two see the same
+    /// splits: the root is split where the cost is least, and is a leaf
+    /// exactly when that costs no more than splitting (traversal cost
+    /// included), with every knob varied. Two trials repeat each box
+    /// enough times to take the parallel binning.
+    #[test]
+    fn sah_root_split_is_the_least_cost_one_and_a_leaf_only_when_that_is_cheaper() {
+        const N: usize = 32;
+        let mut rng = Xorshift(0x9e37_79b9_7f4a_7c15);
+        let permutation = |rng: &mut Xorshift| {
+            let mut p: Vec<usize> = (0..N).collect();
+            for i in (1..N).rev() {
+                p.swap(i, (rng.next() * (i + 1) as f32) as usize);
+            }
+            p
+        };
+        let (mut splits, mut leaves) = (0, 0);
+        for trial in 0..300 {
+            let axes = [0, 1, 2].map(|_| permutation(&mut rng));
+            let spacing = [0, 1, 2].map(|_| 0.25 + 4.0 * rng.next());
+            let copies = if trial < 2 { PARALLEL_SCAN / N + 50 } else { 1 };
+            let prims: Vec<Aabb> = (0..N)
+                .flat_map(|i| {
+                    let centre =
+                        Vec3::from([0, 1, 2].map(|a| (axes[a][i] as f32 + 0.5) * spacing[a]));
+                    let mut half = Vec3::from([0, 1, 2].map(|a| 3.0 * spacing[a] * rng.next()));
+                    if axes[trial % 3][i] == N - 1 {
+                        half *= 30.0;
+                    }
+                    let b = Aabb {
+                        min: centre - half,
+                        max: centre + half,
+                    };
+                    std::iter::repeat_n(b, copies)
+                })
+                .collect();
+            let n = prims.len();
+            let params = BuildParams {
+                sah: true,
+                bins: N,
+                traversal_cost: 64.0 * rng.next(),
+                lanes: [1, 4, 8][trial % 3],
+                max_leaf: if trial % 2 == 0 { N } else { 8 },
+                top_slots: 0,
+            };
+            let (root, order) = build(&prims, n as u32, params);
+            let root = root.unwrap();
+            assert_tight(&root, &order, &prims);
+            let best = full_sweep_cost(&prims, &params);
+            let area = half_area(root.bounds());
+            let split_cost = params.traversal_cost * area + best;
+            let leaf_cost = area * group_cost(n, &params);
+            let what = format!("trial {trial}, {params:?}");
+            match &root {
+                BuildNode::Leaf { .. } => {
+                    assert!(params.max_leaf >= n, "{what}: a leaf of more than max_leaf");
+                    assert!(
+                        leaf_cost <= split_cost,
+                        "{what}: a leaf costlier than a split"
+                    );
+                    leaves += 1;
+                }
+                BuildNode::Inner { children, .. } => {
+                    let cost: f32 = children
+                        .iter()
+                        .map(|c| half_area(c.bounds()) * group_cost(c.count() as usize, &params))
+                        .sum();
+                    assert!(
+                        (cost - best).abs() <= 1e-5 * best,
+                        "{what}: split cost {cost}, the least is {best}"
+                    );
+                    if params.max_leaf >= n {
+                        assert!(
+                            leaf_cost > split_cost,
+                            "{what}: split though a leaf is cheaper"
+                        );
+                    }
+                    splits += 1;
+                }
+            }
+        }
+        // Both outcomes are exercised.
+        assert!(
+            splits >= 50 && leaves >= 20,
+            "{splits} splits, {leaves} leaves"
+        );
+    }
+
+    /// The whole tree's SAH cost (per unit of the root's half area): node
+    /// visits at the traversal cost, leaves at their group cost.
+    fn tree_cost(node: &BuildNode, params: &BuildParams) -> f32 {
+        let here = half_area(node.bounds());
+        match node {
+            BuildNode::Leaf { count, .. } => here * group_cost(*count as usize, params),
+            BuildNode::Inner { children, .. } => {
+                here * params.traversal_cost
+                    + tree_cost(&children[0], params)
+                    + tree_cost(&children[1], params)
+            }
+        }
+    }
+
+    /// Below the root the bins no longer hold one centroid each, so the
+    /// greedy binned build is checked by its result: on clustered input,
+    /// large enough to use the parallel scan and subtree builds, its tree
+    /// costs far less than the midpoint tree by the SAH's own measure.
+    #[test]
+    fn sah_tree_costs_well_below_the_midpoint_tree() {
+        let mut rng = Xorshift(0x1234_5678_9abc_def1);
+        let prims: Vec<Aabb> = (0..(PARALLEL_SCAN + 5000))
+            .map(|_| {
+                // Dense clusters on a sparse lattice, boxes of mixed size.
+                let cell = Vec3::new(
+                    (rng.next() * 6.0).floor() * 10.0,
+                    (rng.next() * 3.0).floor() * 10.0,
+                    0.0,
+                );
+                let p = cell + Vec3::new(rng.next(), rng.next(), rng.next()).powf(3.0);
+                let size = 0.001 + 0.05 * rng.next().powi(4);
+                Aabb {
+                    min: p,
+                    max: p + Vec3::splat(size),
+                }
+            })
+            .collect();
+        let n = prims.len() as u32;
+        let params = sah(0);
+        let (sah_root, order) = build(&prims, n, params);
+        let sah_root = sah_root.unwrap();
+        assert_tight(&sah_root, &order, &prims);
+        let (mid_root, _) = build(&prims, n, BuildParams::MIDPOINT);
+        let (sah_cost, mid_cost) = (
+            tree_cost(&sah_root, &params),
+            tree_cost(&mid_root.unwrap(), &params),
+        );
+        assert!(
+            sah_cost < 0.8 * mid_cost,
+            "SAH tree {sah_cost}, midpoint tree {mid_cost}"
+        );
+    }
+    /// Depth of the deepest leaf below `node` (a root leaf has depth 0),
+    /// checking on the way that no leaf holds more than `max_leaf`
+    /// primitives and that, past the heuristic depth limit, no node
+    /// holding at most that many is split.
+    fn depth_checked(node: &BuildNode, depth: usize, max_leaf: usize) -> usize {
+        let small = node.count() as usize <= max_leaf;
+        match node {
+            BuildNode::Leaf { .. } => {
+                assert!(small, "a leaf of {} at depth {depth}", node.count());
+                depth
+            }
+            BuildNode::Inner { children, .. } => {
+                assert!(
+                    !small || depth < MAX_HEURISTIC_DEPTH,
+                    "{} split at depth {depth}",
+                    node.count()
+                );
+                children
+                    .iter()
+                    .map(|c| depth_checked(c, depth + 1, max_leaf))
+                    .max()
+                    .unwrap()
+            }
+        }
+    }
+
+    /// Centroids doubling away from the origin on both sides make the
+    /// midpoint split peel off one primitive per level (all but the
+    /// farthest lie within half the range), on the right on one side and
+    /// on the left on the other; past `MAX_HEURISTIC_DEPTH` the object
+    /// median takes over, so the depth stays within that plus log2(n).
+    /// With a cluster of more than 4096 primitives on each side the
+    /// peeling runs through the parallel subtree builds, with a small one
+    /// through the serial ones.
+    #[test]
+    fn depth_is_bounded_for_adversarial_input() {
+        let mut rng = Xorshift(0x0bad_5eed_0bad_5eed);
+        for cluster in [5000, 100] {
+            let mut prims = Vec::new();
+            for side in [1.0f32, -1.0] {
+                prims.extend((0..cluster).map(|_| {
+                    let p = Vec3::new(side * rng.next(), rng.next(), rng.next());
+                    Aabb {
+                        min: p,
+                        max: p + Vec3::splat(0.01),
+                    }
+                }));
+                prims.extend((1..=100).map(|i| {
+                    let p = Vec3::new(side * 2f32.powi(i), 0.5, 0.5);
+                    Aabb { min: p, max: p }
+                }));
+            }
+            let n = prims.len();
+            let params = BuildParams::MIDPOINT;
+            let (root, order) = build(&prims, n as u32, params);
+            let root = root.unwrap();
+            assert_tight(&root, &order, &prims);
+            let depth = depth_checked(&root, 0, params.max_leaf);
+            let bound = MAX_HEURISTIC_DEPTH + n.ilog2() as usize + 2;
+            // The input does reach the limit: the peeling goes past it.
+            assert!(
+                (MAX_HEURISTIC_DEPTH..=bound).contains(&depth),
+                "cluster {cluster}: depth {depth}, bound {bound}"
+            );
+        }
+    }
+
+    /// Centroids one float apart: the midpoint of their range rounds onto
+    /// one of them, leaving a side empty, and the build falls back to the
+    /// median instead of recursing on the same node for ever.
+    #[test]
+    fn midpoint_build_terminates_on_centroids_one_ulp_apart() {
+        let x = [1.0f32, 1.0f32.next_up()];
+        let prims: Vec<Aabb> = (0..40)
+            .map(|i| {
+                let p = Vec3::new(x[i % 2], 0.0, 0.0);
+                Aabb { min: p, max: p }
+            })
+            .collect();
+        for params in [BuildParams::MIDPOINT, sah(0)] {
+            let (root, order) = build(&prims, 40, params);
+            let root = root.unwrap();
+            assert_tight(&root, &order, &prims);
+            let mut found = Vec::new();
+            leaves(&root, &order, &mut found);
+            assert!(found.iter().all(|(_, ids)| ids.len() <= params.max_leaf));
+        }
     }
 }
