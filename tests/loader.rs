@@ -11,7 +11,7 @@ use glam::{Mat4, Vec2, Vec3, Vec4};
 use wavepath::scene::{Light, Material, Scene, collada::load_str};
 
 mod common;
-use common::fixture::{BASE, NAME, edit, edits};
+use common::fixture::{BASE, NAME, POSITION_ACCESSOR, edit, edits};
 
 fn load(text: &str) -> Scene {
     load_str(text, Path::new(NAME)).unwrap_or_else(|e| panic!("{e}"))
@@ -513,26 +513,22 @@ fn warnings_name_what_a_scene_lacks_or_skips() {
     let base = load(BASE);
     assert!(base.warnings.is_empty(), "{:?}", base.warnings);
     // Triangles alone or a sphere alone are geometry; neither is not.
-    let only_triangles = load(&edit(
-        r##"<instance_geometry url="#ball">"##,
-        r##"<instance_geometry url="#tri">"##,
-    ));
-    assert_eq!(only_triangles.geometry.spheres.len(), 0);
-    assert!(
-        !warned(&only_triangles, "no geometry"),
-        "{:?}",
-        only_triangles.warnings
-    );
-    let only_spheres = load(&edit(
-        r##"<instance_geometry url="#tri">"##,
-        r##"<instance_geometry url="#ball">"##,
-    ));
-    assert_eq!(only_spheres.geometry.triangles.len(), 0);
-    assert!(
-        !warned(&only_spheres, "no geometry"),
-        "{:?}",
-        only_spheres.warnings
-    );
+    for (keep, drop) in [("#tri", "#ball"), ("#ball", "#tri")] {
+        let scene = load(&edit(
+            &format!(r#"<instance_geometry url="{drop}">"#),
+            &format!(r#"<instance_geometry url="{keep}">"#),
+        ));
+        let g = &scene.geometry;
+        assert_eq!(
+            (g.triangles.is_empty(), g.spheres.is_empty()),
+            (keep == "#ball", keep == "#tri")
+        );
+        assert!(
+            !warned(&scene, "no geometry"),
+            "{keep}: {:?}",
+            scene.warnings
+        );
+    }
     let neither = edits(&[
         (
             r##"<instance_geometry url="#tri">"##,
@@ -746,16 +742,7 @@ fn texture_coordinates_are_the_first_sets_and_only_where_every_list_has_them() {
 #[test]
 fn sources_without_an_accessor_are_packed_tuples() {
     // Positions with no <technique_common>: tightly packed x y z.
-    let text = edit(
-        r##"<technique_common>
-            <accessor source="#tri-pos-array" count="3" stride="3">
-              <param name="X" type="float"/>
-              <param name="Y" type="float"/>
-              <param name="Z" type="float"/>
-            </accessor>
-          </technique_common>"##,
-        "",
-    );
+    let text = edit(POSITION_ACCESSOR, "");
     let scene = load(&text);
     assert_triangle_placed(&scene, Mat4::from_rotation_y(30f32.to_radians()), "packed");
 }

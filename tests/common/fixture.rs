@@ -8,6 +8,16 @@
 /// Errors report lines of this text: `fixtures/minimal.dae` line for line.
 pub const BASE: &str = include_str!("../fixtures/minimal.dae");
 
+/// The fixture's position accessor, which edits remove to leave a packed
+/// source.
+pub const POSITION_ACCESSOR: &str = r##"<technique_common>
+            <accessor source="#tri-pos-array" count="3" stride="3">
+              <param name="X" type="float"/>
+              <param name="Y" type="float"/>
+              <param name="Z" type="float"/>
+            </accessor>
+          </technique_common>"##;
+
 /// The name errors report for scenes loaded from strings.
 pub const NAME: &str = "scenes/bad.dae";
 
