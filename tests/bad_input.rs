@@ -302,21 +302,25 @@ fn source_without_accessor_not_whole_tuples() {
     );
 }
 
+/// [`BASE`] with its `<polylist>` turned into a `<kind>` list with the
+/// attribute `count` and the index lists `p` (no `<vcount>`).
+fn with_list(kind: &str, count: &str, p: &str) -> String {
+    edits(&[
+        (
+            r#"<polylist material="grey-sym" count="1">"#,
+            &format!(r#"<{kind} material="grey-sym" {count}>"#),
+        ),
+        ("<vcount>3</vcount>\n", ""),
+        ("<p>0 0 0 1 0 1 2 0 2</p>", p),
+        ("</polylist>", &format!("</{kind}>")),
+    ])
+}
+
 #[test]
 fn polygons_and_triangles_lists_checked_against_their_counts() {
     // <polygons>: one <p> per polygon, each a whole number of corners (3
     // inputs each), as many as count says.
-    let polygons = |count: &str, p: &str| {
-        edits(&[
-            (
-                r#"<polylist material="grey-sym" count="1">"#,
-                &format!(r#"<polygons material="grey-sym" {count}>"#),
-            ),
-            ("<vcount>3</vcount>\n", ""),
-            ("<p>0 0 0 1 0 1 2 0 2</p>", p),
-            ("</polylist>", "</polygons>"),
-        ])
-    };
+    let polygons = |count: &str, p: &str| with_list("polygons", count, p);
     let ok = polygons(r#"count="1""#, "<p>0 0 0 1 0 1 2 0 2</p>");
     assert_eq!(
         load_str(&ok, Path::new(NAME))
@@ -339,15 +343,7 @@ fn polygons_and_triangles_lists_checked_against_their_counts() {
         "8 indices is not a whole number of 3-index corners",
     );
     // <triangles> with triangles to list but no <p>.
-    let text = edits(&[
-        (
-            r#"<polylist material="grey-sym" count="1">"#,
-            r#"<triangles material="grey-sym" count="1">"#,
-        ),
-        ("<vcount>3</vcount>\n", ""),
-        ("<p>0 0 0 1 0 1 2 0 2</p>", ""),
-        ("</polylist>", "</triangles>"),
-    ]);
+    let text = with_list("triangles", r#"count="1""#, "");
     expect_at(&text, "triangles", "<triangles ", "missing <p>");
 }
 

@@ -198,24 +198,18 @@ fn the_bound_material_is_the_one_the_lists_symbol_names() {
         edits(&all)
     };
     // Two bindings; the list's symbol picks the second.
-    let text = with_red(&[(
+    let both = (
         r##"<instance_material symbol="grey-sym" target="#mat"/>"##,
         r##"<instance_material symbol="red-sym" target="#red"/><instance_material symbol="grey-sym" target="#mat"/>"##,
-    )]);
+    );
+    let text = with_red(&[both]);
     let scene = load(&text);
     assert_eq!(triangle_material(&scene), "grey");
     // And the first, when the list names it.
-    let text = with_red(&[
-        (
-            r##"<instance_material symbol="grey-sym" target="#mat"/>"##,
-            r##"<instance_material symbol="red-sym" target="#red"/><instance_material symbol="grey-sym" target="#mat"/>"##,
-        ),
-        (r#"material="grey-sym""#, r#"material="red-sym""#),
-    ]);
+    let text = with_red(&[both, (r#"material="grey-sym""#, r#"material="red-sym""#)]);
     let scene = load(&text);
     assert_eq!(triangle_material(&scene), "red");
-    let red = &scene.materials[scene.geometry.triangles.material[0] as usize];
-    assert_eq!(red.material, Material::Diffuse { albedo: Vec3::X });
+    assert_eq!(*scene.material_of(0), Material::Diffuse { albedo: Vec3::X });
     // A symbol bound nowhere that is a material's id (as exporters write
     // it) names that material; one that is not falls back to the default.
     let text = with_red(&[(r#"material="grey-sym""#, r#"material="red""#)]);
@@ -235,11 +229,8 @@ fn record_material(profile: &str, record: &str) -> Material {
         ),
     );
     let scene = load(&text);
-    scene.warnings.iter().for_each(|w| eprintln!("{w}"));
     assert!(scene.warnings.is_empty(), "{record}: {:?}", scene.warnings);
-    scene.materials[scene.geometry.triangles.material[0] as usize]
-        .material
-        .clone()
+    scene.material_of(0).clone()
 }
 
 #[test]
@@ -344,8 +335,11 @@ fn diffuse_colours_come_from_the_common_technique_of_any_shading_model() {
         )
         .replace("</lambert>\n        </technique>", &format!("</{model}>\n        </technique>"));
         let scene = load(&text);
-        let got = &scene.materials[scene.geometry.triangles.material[0] as usize].material;
-        assert_eq!(*got, Material::Diffuse { albedo: want }, "{model}");
+        assert_eq!(
+            *scene.material_of(0),
+            Material::Diffuse { albedo: want },
+            "{model}"
+        );
         assert!(scene.warnings.is_empty(), "{model}: {:?}", scene.warnings);
     }
 }

@@ -909,29 +909,23 @@ mod tests {
             );
         }
         // The parts: the five walls, then everything else.
+        let parts = isolated_parts(&bounds, triangles, 8).unwrap();
+        let lengths: Vec<usize> = parts.iter().map(Vec::len).collect();
+        assert_eq!(lengths, [2, 2, 2, 2, 2, bounds.len() - 10]);
+        let mut pieces = parts[..5].concat();
+        pieces.sort();
+        assert_eq!(pieces, (0..10).collect::<Vec<u32>>());
+    }
+
+    /// The parts `isolate_large` makes of `bounds` (ids below
+    /// `triangles` are triangles) with `slots` root slots, each as sorted
+    /// ids; the rest last.
+    fn isolated_parts(bounds: &[Aabb], triangles: u32, slots: usize) -> Option<Vec<Vec<u32>>> {
         let bounds: Vec<Bounds> = bounds.iter().map(Bounds::from).collect();
         let ctx = Ctx {
             bounds: &bounds,
             centroids: &[],
             triangle_count: triangles,
-            params: sah(8),
-        };
-        let mut order: Vec<u32> = (0..bounds.len() as u32).collect();
-        let parts = isolate_large(&ctx, &mut order).unwrap();
-        assert_eq!(parts, [2, 2, 2, 2, 2, bounds.len() - 10]);
-        let mut pieces = order[..10].to_vec();
-        pieces.sort();
-        assert_eq!(pieces, (0..10).collect::<Vec<u32>>());
-    }
-
-    /// The parts `isolate_large` makes of `bounds` (all triangles) with
-    /// `slots` root slots, each as sorted ids; the rest last.
-    fn isolated_parts(bounds: &[Aabb], slots: usize) -> Option<Vec<Vec<u32>>> {
-        let bounds: Vec<Bounds> = bounds.iter().map(Bounds::from).collect();
-        let ctx = Ctx {
-            bounds: &bounds,
-            centroids: &[],
-            triangle_count: bounds.len() as u32,
             params: sah(slots),
         };
         let mut order: Vec<u32> = (0..bounds.len() as u32).collect();
@@ -960,7 +954,7 @@ mod tests {
         for b in &mut bounds[..2] {
             b.max.y = 0.00025;
         }
-        let mut parts = isolated_parts(&bounds, 8).unwrap();
+        let mut parts = isolated_parts(&bounds, bounds.len() as u32, 8).unwrap();
         parts[..5].sort();
         let walls: Vec<Vec<u32>> = (0..5).map(|w| vec![2 * w, 2 * w + 1]).collect();
         assert_eq!(parts[..5], walls[..]);
@@ -977,7 +971,7 @@ mod tests {
         bounds[0] = layer(0.0022);
         bounds[1] = layer(0.0);
         bounds.insert(10, layer(0.001));
-        let parts = isolated_parts(&bounds, 8).unwrap();
+        let parts = isolated_parts(&bounds, bounds.len() as u32, 8).unwrap();
         assert!(parts.contains(&vec![1, 10]), "{parts:?}");
         assert!(parts.contains(&vec![0]), "{parts:?}");
 
@@ -988,10 +982,10 @@ mod tests {
             .filter(|&(i, _)| !(2..10).contains(&i))
             .map(|(_, b)| b)
             .collect();
-        let parts = isolated_parts(&floor_only, 2).unwrap();
+        let parts = isolated_parts(&floor_only, 202, 2).unwrap();
         assert_eq!(parts[0], [0, 1]);
         assert_eq!(parts[1].len(), 200);
-        assert_eq!(isolated_parts(&floor_only, 1), None);
+        assert_eq!(isolated_parts(&floor_only, 202, 1), None);
     }
 
     #[test]
@@ -1010,6 +1004,7 @@ mod tests {
         leaves(&plain.unwrap(), &plain_order, &mut b);
         assert_eq!(a.len(), b.len());
     }
+
     /// The SAH's price of a leaf of `n` primitives per unit of half area:
     /// whole SIMD groups.
     fn group_cost(n: usize, params: &BuildParams) -> f32 {
@@ -1193,6 +1188,7 @@ mod tests {
             "SAH tree {sah_cost}, midpoint tree {mid_cost}"
         );
     }
+
     /// Depth of the deepest leaf below `node` (a root leaf has depth 0),
     /// checking on the way that no leaf holds more than `max_leaf`
     /// primitives and that, past the heuristic depth limit, no node

@@ -165,6 +165,10 @@ pub fn parse_mesh(
             if offset >= u32::MAX as usize {
                 return Err(src.error(input, format!("offset=\"{offset}\" is too large")));
             }
+            // Only the first texture coordinate set is used; the others are
+            // not even read.
+            let later_texcoord_set =
+                semantic == "TEXCOORD" && inputs.iter().any(|i| i.semantic == "TEXCOORD");
             match semantic.as_str() {
                 "VERTEX" => {
                     ids.resolve(src, input, "source", "vertices")?;
@@ -174,17 +178,7 @@ pub fn parse_mesh(
                         source: usize::MAX,
                     });
                 }
-                "NORMAL" | "TEXCOORD" => {
-                    // Only the first texture coordinate set is used; the
-                    // others are not even read.
-                    if semantic == "TEXCOORD" && inputs.iter().any(|i| i.semantic == "TEXCOORD") {
-                        inputs.push(ListInput {
-                            semantic: String::new(),
-                            offset,
-                            source: usize::MAX,
-                        });
-                        continue;
-                    }
+                "NORMAL" | "TEXCOORD" if !later_texcoord_set => {
                     let source = ids.resolve(src, input, "source", "source")?;
                     let min = if semantic == "NORMAL" { 3 } else { 2 };
                     sources.push(read_source(src, source, min)?);

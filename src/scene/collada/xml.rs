@@ -303,12 +303,8 @@ impl<'a, 'i> Ids<'a, 'i> {
 
 #[cfg(test)]
 mod tests {
-    use super::innermost_open_element;
-
     /// The name and start offset of the element left open at the end of `text`.
-    fn open(text: &str) -> Option<(&str, usize)> {
-        innermost_open_element(text)
-    }
+    use super::innermost_open_element as open;
 
     #[test]
     fn the_innermost_element_still_open_is_named_with_its_start() {
