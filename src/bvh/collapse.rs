@@ -232,8 +232,17 @@ mod tests {
     /// Small random trees: `n` boxes around `scale`, the first
     /// `triangles` of them triangles and the rest spheres, leaves of at
     /// most two primitives so that the binary tree is deep enough for the
-    /// choices to matter.
-    fn random_tree(seed: u32, n: usize, triangles: u32, scale: f32) -> (BuildNode, Vec<u32>) {
+    /// choices to matter. Boxes have half-sizes up to `size` in a cube of
+    /// side 10: small ones leave space between siblings (opening a node
+    /// pays), large ones overlap (keeping a node whole as one leaf or one
+    /// slot pays, so fewer slots than offered are the cheaper plan).
+    fn random_tree(
+        seed: u32,
+        n: usize,
+        triangles: u32,
+        scale: f32,
+        size: f32,
+    ) -> (BuildNode, Vec<u32>) {
         let mut draw = 0;
         let mut next = move || {
             draw += 1;
@@ -242,7 +251,7 @@ mod tests {
         let boxes: Vec<Aabb> = (0..n)
             .map(|_| {
                 let c = Vec3::new(next(), next(), next()) * 10.0;
-                let h = Vec3::new(next(), next(), next()) * 0.8 + Vec3::splat(0.01);
+                let h = Vec3::new(next(), next(), next()) * size + Vec3::splat(0.01);
                 Aabb {
                     min: (c - h) * scale,
                     max: (c + h) * scale,
@@ -335,15 +344,19 @@ mod tests {
 
     #[test]
     fn plan_is_the_least_cost_collapse() {
-        for seed in 0..16 {
-            let n = 18 + seed as usize;
+        // Trees deeper than one wide node, and trees of three to eight
+        // boxes, which cannot use all the root's slots.
+        let sizes = (0..16).map(|seed| (seed, 18 + seed as usize));
+        let small = (16..28).map(|seed| (seed, 3 + seed as usize % 6));
+        for (seed, n) in sizes.chain(small) {
             // Half the trees mix in spheres, which never share a leaf.
             let triangles = if seed % 2 == 0 {
                 n as u32
             } else {
                 n as u32 / 2
             };
-            let (root, order) = random_tree(seed, n, triangles, 1.0);
+            let size = if seed % 4 < 2 { 0.8 } else { 6.0 };
+            let (root, order) = random_tree(seed, n, triangles, 1.0, size);
             let plan = Plan::new(&root, triangles, &order);
             let root_area = root.bounds().surface_area();
             let want = C_NODE + exhaustive_wide(&plan, root_area, &order, triangles);
@@ -364,7 +377,7 @@ mod tests {
     /// taken in f64), into two to eight slots.
     #[test]
     fn huge_coordinates_plan() {
-        let (root, order) = random_tree(3, 40, 40, 1e30);
+        let (root, order) = random_tree(3, 40, 40, 1e30, 0.8);
         let plan = Plan::new(&root, 40, &order);
         assert!(plan.wide_cost.is_finite());
         let (_, n) = plan.slots();

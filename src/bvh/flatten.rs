@@ -353,37 +353,73 @@ mod tests {
         }
     }
 
-    /// The flattened tree is the plan: every triangle in exactly one leaf,
-    /// and its SAH cost (summed over the wide nodes and leaves actually
-    /// laid out) is the plan's least cost.
-    #[test]
-    fn layout_follows_the_plan() {
+    /// Random geometry: `triangles` small triangles (lying in one of four
+    /// planes x = const when `flat_x`, so that many slot boxes have zero
+    /// width in x) and `spheres` small spheres, in a cube of side 20.
+    fn random_geometry(seed: u32, triangles: usize, spheres: usize, flat_x: bool) -> Geometry {
         let mut draw = 0;
         let mut next = move || {
             draw += 1;
-            to_unit_float(hash32(draw))
+            to_unit_float(hash32(seed.wrapping_mul(0x9e37_79b9) ^ draw))
         };
-        // 20,000 also takes the parallel paths (plan and flatten).
-        for n in [1, 7, 9, 100, 3000, 20_000] {
-            let mut positions = Vec::new();
-            let mut indices = Vec::new();
-            for t in 0..n as u32 {
-                let c = Vec3::new(next(), next(), next()) * 20.0;
-                for _ in 0..3 {
-                    positions.push(c + Vec3::new(next(), next(), next()) * 0.5);
-                }
-                indices.push([3 * t, 3 * t + 1, 3 * t + 2]);
+        let mut positions = Vec::new();
+        let mut indices = Vec::new();
+        for t in 0..triangles as u32 {
+            let c = Vec3::new(next(), next(), next()) * 20.0;
+            let plane = (next() * 4.0).floor() * 5.0;
+            for _ in 0..3 {
+                let p = c + Vec3::new(next(), next(), next()) * 0.5;
+                positions.push(if flat_x {
+                    Vec3::new(plane, p.y, p.z)
+                } else {
+                    p
+                });
             }
-            let geometry = Geometry {
-                triangles: Triangles {
-                    positions,
-                    normals: Vec::new(),
-                    material: vec![0; n],
-                    indices,
-                    texcoords: Vec::new(),
-                },
-                spheres: Spheres::default(),
-            };
+            indices.push([3 * t, 3 * t + 1, 3 * t + 2]);
+        }
+        let center: Vec<Vec3> = (0..spheres)
+            .map(|_| Vec3::new(next(), next(), next()) * 20.0)
+            .collect();
+        Geometry {
+            triangles: Triangles {
+                positions,
+                normals: Vec::new(),
+                material: vec![0; triangles],
+                indices,
+                texcoords: Vec::new(),
+            },
+            spheres: Spheres {
+                radius: (0..spheres).map(|_| 0.05 + next() * 0.3).collect(),
+                center,
+                material: vec![0; spheres],
+            },
+        }
+    }
+
+    /// The flattened tree is the plan: every primitive in exactly one leaf
+    /// (a sphere's copy holding its own centre and radius), its SAH cost
+    /// (summed over the wide nodes and leaves actually laid out) the
+    /// plan's least cost, and its depth the longest path laid out.
+    #[test]
+    fn layout_follows_the_plan() {
+        // (triangles, spheres, triangles flat in x). 20,000 primitives
+        // also take the parallel plan; 80,000 the parallel flatten too
+        // (several root slots above PARALLEL_FLATTEN), whose appended
+        // subtrees have their references shifted.
+        let cases = [
+            (1, 0, false),
+            (7, 0, false),
+            (9, 0, false),
+            (100, 0, false),
+            (3000, 0, false),
+            (20_000, 0, false),
+            (80_000, 0, true),
+            (0, 80_000, false),
+            (3000, 3000, true),
+        ];
+        for (seed, (triangles, spheres, flat_x)) in cases.into_iter().enumerate() {
+            let geometry = random_geometry(seed as u32, triangles, spheres, flat_x);
+            let n = triangles + spheres;
             let bounds: Vec<Aabb> = (0..n as u32)
                 .map(|i| geometry.primitive_bounds(i))
                 .collect();
@@ -395,15 +431,18 @@ mod tests {
                 max_leaf: 8,
                 top_slots: 0,
             };
-            let (root, order) = build::build(&bounds, n as u32, params);
+            let (root, order) = build::build(&bounds, triangles as u32, params);
             let root = root.unwrap();
             let flat = flatten(Some(&root), &order, &geometry);
+            let case = format!("{triangles} triangles, {spheres} spheres, flat {flat_x}");
 
             let root_area = root.bounds().surface_area();
             let mut seen = vec![0; n];
             let mut cost = C_NODE;
-            let mut stack = vec![0usize];
-            while let Some(index) = stack.pop() {
+            let mut depth = 0;
+            let mut stack = vec![(0usize, 1)];
+            while let Some((index, level)) = stack.pop() {
+                depth = depth.max(level);
                 let node = &flat.nodes[index];
                 for slot in 0..WIDTH {
                     let b = slot_bounds(node, slot);
@@ -412,20 +451,33 @@ mod tests {
                     }
                     let area = b.surface_area() / root_area;
                     let c = node.child[slot];
-                    if c.is_leaf() {
-                        let groups = &flat.tri_groups[c.index()..c.index() + c.count()];
-                        cost += area * C_PRIM * groups.len() as f32;
+                    if !c.is_leaf() {
+                        cost += area * C_NODE;
+                        stack.push((c.index(), level + 1));
+                        continue;
+                    }
+                    cost += area * C_PRIM * c.count() as f32;
+                    let items = c.index()..c.index() + c.count();
+                    if c.is_sphere() {
+                        for s in &flat.spheres[items] {
+                            let i = s.id as usize - triangles;
+                            assert_eq!(s.center, geometry.spheres.center[i], "{case}");
+                            assert_eq!(s.radius, geometry.spheres.radius[i], "{case}");
+                            let inside = b.min.cmple(s.center).all() && s.center.cmple(b.max).all();
+                            assert!(inside, "{case}: sphere {i} outside its slot");
+                            seen[s.id as usize] += 1;
+                        }
+                    } else {
+                        let groups = &flat.tri_groups[items];
                         for id in groups.iter().flat_map(|g| g.id).filter(|&id| id != NO_HIT) {
                             seen[id as usize] += 1;
                         }
-                    } else {
-                        cost += area * C_NODE;
-                        stack.push(c.index());
                     }
                 }
             }
-            assert!(seen.iter().all(|&s| s == 1), "{n} triangles: {seen:?}");
-            let plan = Plan::new(&root, n as u32, &order);
+            assert!(seen.iter().all(|&s| s == 1), "{case}: {seen:?}");
+            assert_eq!(flat.depth, depth, "{case}");
+            let plan = Plan::new(&root, triangles as u32, &order);
             let want = match root {
                 BuildNode::Inner { .. } => plan.wide_cost,
                 // A lone leaf still gets a root node.
@@ -433,7 +485,7 @@ mod tests {
             };
             assert!(
                 (cost - want).abs() <= 1e-4 * want,
-                "{n} triangles: laid out {cost}, planned {want}"
+                "{case}: laid out {cost}, planned {want}"
             );
         }
     }
