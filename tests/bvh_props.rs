@@ -327,6 +327,14 @@ fn degenerate_inputs() {
     rays.push(Vec3::ZERO, Vec3::Z, f32::INFINITY);
     rays.push(Vec3::ZERO, Vec3::Z, 0.5);
     rays.push(Vec3::ZERO, Vec3::Z, 1.0);
+    // A ray of length zero starting on the triangle, and one whose
+    // direction is the smallest normal float (still a direction).
+    rays.push(Vec3::Z, Vec3::Z, 0.0);
+    rays.push(
+        Vec3::ZERO,
+        Vec3::new(0.0, 0.0, f32::MIN_POSITIVE),
+        f32::INFINITY,
+    );
     compare(&g, &rays).unwrap();
     for accel in [Accel::Sah, Accel::Median, Accel::None] {
         let bvh = Bvh::build(&g, accel);
@@ -336,7 +344,36 @@ fn degenerate_inputs() {
         assert!(hits.is_hit(2) && hits.t[2] == 1.0);
         assert!(!hits.is_hit(3));
         assert!(hits.is_hit(4), "t == t_max counts as a hit");
+        assert_eq!(hits.prim[2], 0, "exact ties go to the lowest id");
+        assert!(hits.is_hit(5) && hits.t[5] == 0.0, "t == 0 == t_max counts");
+        // Traced like any other direction (its distance, 2^126, overflows
+        // in the triangle test's scaling; brute force agrees, above).
+        assert!(
+            hits.is_hit(6),
+            "the smallest normal direction is a direction"
+        );
         assert!((hits.u[2] - 0.25).abs() < 1e-6 && (hits.v[2] - 0.5).abs() < 1e-6);
+    }
+}
+
+/// Identical spheres tie exactly, wherever the tree puts them: the lower
+/// id wins, for single rays and for packets alike.
+#[test]
+fn sphere_ties_go_to_the_lower_id() {
+    let spheres = vec![(Vec3::new(0.0, 0.0, 3.0), 1.0); 5];
+    let g = geometry(Vec::new(), Vec::new(), spheres);
+    let mut rays = Rays::default();
+    for i in 0..16 {
+        let o = Vec3::new(0.01 * i as f32, 0.0, 0.0);
+        rays.push(o, Vec3::new(0.0, 0.02 * (i % 4) as f32, 1.0), f32::INFINITY);
+    }
+    for accel in [Accel::Sah, Accel::Median, Accel::None] {
+        let bvh = Bvh::build(&g, accel);
+        let mut hits = Hits::default();
+        bvh.intersect(&rays, &mut hits, &mut TraversalStats::default(), None);
+        for i in 0..rays.len() {
+            assert_eq!(hits.prim[i], 0, "{accel}: ray {i}");
+        }
     }
 }
 
@@ -430,6 +467,81 @@ fn rays_in_box_face_planes() {
     }
 }
 
+/// A soup 1e5 units from the origin, rays from within it: their hits are
+/// a few units away, while the rounding of box and triangle distances
+/// there is a few ulps of 1e5. Ending each ray exactly at its hit (as
+/// `compare` does) checks that the cull's slack, which grows with the
+/// coordinates and not with `t`, keeps the hit's box.
+#[test]
+fn soup_far_from_the_origin() {
+    let mut rng = Rng(0x5eed_f00d);
+    for offset in [Vec3::splat(1.0e5), Vec3::new(-3.0e5, 2.0e4, 1.0e5)] {
+        let tris: Vec<(Vec3, Vec3, Vec3)> = (0..500)
+            .map(|_| {
+                let corner = offset + (rng.vec3() - Vec3::splat(0.5)) * 8.0;
+                let edge = |rng: &mut Rng| (rng.vec3() - Vec3::splat(0.5)) * 2.0;
+                (corner, edge(&mut rng), edge(&mut rng))
+            })
+            .collect();
+        let g = soup(tris, vec![(offset, 0.7)]);
+        let mut rays = Rays::default();
+        for i in 0..2000 {
+            let o = offset + (rng.vec3() - Vec3::splat(0.5)) * 10.0;
+            let d = rng.vec3() - Vec3::splat(0.5);
+            // Also slots of eight rays from one point (packets, bundles).
+            let o = if i % 16 < 8 || i % 8 == 0 {
+                o
+            } else {
+                rays.origin(i - i % 8)
+            };
+            rays.push(o, d, f32::INFINITY);
+        }
+        let hits = compare(&g, &rays).unwrap_or_else(|e| panic!("offset {offset}: {e}"));
+        assert!(hits > 500, "offset {offset}: {hits} hits");
+    }
+}
+
+/// A floor 2e5 units across, rays starting just above it at grazing
+/// angles: the triangle test's distance comes from vertex coordinates of
+/// ~1e5, so its rounding is ~1e5·ε, far more than a few ulps of the
+/// distance (~1) itself, while the box's entry distance is exact. Ending
+/// each ray at its hit checks that the cull's absolute slack, which grows
+/// with the coordinates, keeps the floor's box.
+#[test]
+fn grazing_rays_over_a_huge_floor() {
+    let mut rng = Rng(0x0f10_0a5e);
+    let h = 1.0e5;
+    let floor = [
+        (
+            Vec3::new(-h, 0.0, -h),
+            Vec3::new(2.0 * h, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 2.0 * h),
+        ),
+        (
+            Vec3::new(h, 0.0, h),
+            Vec3::new(-2.0 * h, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -2.0 * h),
+        ),
+    ];
+    let g = soup(floor.to_vec(), Vec::new());
+    let mut rays = Rays::default();
+    for _ in 0..4000 {
+        let o = Vec3::new(
+            rng.next() * 200.0 - 100.0,
+            0.001 + rng.next() * 0.1,
+            rng.next() * 200.0 - 100.0,
+        );
+        let along = rng.vec3() * 2.0 - Vec3::ONE;
+        rays.push(
+            o,
+            Vec3::new(along.x, -0.001 - 0.05 * rng.next(), along.z),
+            f32::INFINITY,
+        );
+    }
+    let hits = compare(&g, &rays).unwrap();
+    assert!(hits > 3000, "{hits} hits");
+}
+
 /// A mesh large enough for the parallel build and flatten paths (which
 /// start above ~32k primitives), against brute force.
 #[test]
@@ -518,6 +630,97 @@ fn stats_and_cost_add_up() {
         assert_eq!(stats.rays, 2 * rays.len() as u64);
         assert!(bvh.memory_bytes() > 0 && bvh.primitive_count() == 101);
     }
+}
+
+/// The work counters count each ray's own work, whichever path traced
+/// it. Where the order of the walk cannot matter, the paths must agree
+/// exactly: when a slot's rays are identical (a bundle stops them
+/// together), or when nothing is hit (each ray visits every node its own
+/// box tests enter, and tests every primitive there, in any order) — then
+/// a shadow ray bundled, alone, and its closest-hit twin alone or in a
+/// packet all report the same counts. A closest-hit packet of identical
+/// rays counts each node and primitive once per ray.
+#[test]
+fn every_path_counts_each_rays_own_work() {
+    let mut rng = Rng(0x1234_5678);
+    let tris: Vec<(Vec3, Vec3, Vec3)> = (0..300)
+        .map(|_| {
+            let corner = rng.vec3() * 2.0 - Vec3::ONE;
+            let edge = |rng: &mut Rng| (rng.vec3() - Vec3::splat(0.5)) * 0.5;
+            (corner, edge(&mut rng), edge(&mut rng))
+        })
+        .collect();
+    let spheres = vec![
+        (Vec3::new(0.3, -0.2, 0.1), 0.15),
+        (Vec3::new(-0.5, 0.4, 0.6), 0.1),
+    ];
+    let g = soup(tris, spheres);
+    let bvhs = ACCELS.map(|accel| Bvh::build(&g, accel));
+    let counts = |s: &TraversalStats| (s.nodes_visited, s.primitives_tested);
+    let (mut stopped_together, mut unhit, mut unhit_packets) = (0, 0, 0);
+    for slot in 0..192 {
+        let o = rng.vec3() * 2.4 - Vec3::splat(1.2);
+        // Towards the soup's middle, where most rays find an occluder.
+        let d = rng.vec3() - Vec3::splat(0.5) - o;
+        let kind = slot % 3;
+        let mut rays = Rays::default();
+        for _ in 0..8 {
+            match kind {
+                0 => rays.push(o, d, f32::INFINITY),
+                // Short rays in all directions, or in a cone (one octant:
+                // a closest-hit packet).
+                1 => rays.push(o, rng.vec3() * 2.0 - Vec3::ONE, 0.05 + 0.4 * rng.next()),
+                _ => rays.push(o, d + rng.vec3() * 0.1, 0.05 + 0.4 * rng.next()),
+            }
+        }
+        for bvh in &bvhs {
+            let accel = bvh.accel();
+            let mut bundled = TraversalStats::default();
+            let mut occluded = Vec::new();
+            bvh.occluded(&rays, &mut occluded, &mut bundled);
+            let mut alone = TraversalStats::default();
+            let mut one = Vec::new();
+            for (i, &occluded) in occluded.iter().enumerate() {
+                let mut ray = Rays::default();
+                ray.push(rays.origin(i), rays.direction(i), rays.t_max[i]);
+                bvh.occluded(&ray, &mut one, &mut alone);
+                assert_eq!(one[0], occluded, "{accel}: slot {slot}, ray {i}");
+            }
+            let mut hits = Hits::default();
+            let mut packet = TraversalStats::default();
+            bvh.intersect(&rays, &mut hits, &mut packet, None);
+            // Per-ray costs asked for: every ray walks alone.
+            let mut single = TraversalStats::default();
+            let mut cost = vec![0; rays.len()];
+            bvh.intersect(&rays, &mut hits, &mut single, Some(&mut cost));
+            let what = format!("{accel}: slot {slot} (kind {kind})");
+            if kind == 0 {
+                assert!(
+                    packet.nodes_visited >= 8,
+                    "{what}: every ray visits the root"
+                );
+                assert_eq!(packet.nodes_visited % 8, 0, "{what}");
+                assert_eq!(packet.primitives_tested % 8, 0, "{what}");
+                assert!(!hits.is_hit(0) || packet.primitives_tested >= 8, "{what}");
+                if occluded[0] {
+                    stopped_together += 1;
+                    assert_eq!(counts(&bundled), counts(&alone), "{what}: bundled vs alone");
+                }
+            }
+            if occluded.iter().all(|&o| !o) {
+                unhit += 1;
+                unhit_packets += usize::from(kind == 2);
+                assert_eq!(counts(&bundled), counts(&alone), "{what}: bundled vs alone");
+                assert_eq!(counts(&single), counts(&alone), "{what}: closest vs any");
+                assert_eq!(counts(&packet), counts(&alone), "{what}: packet vs alone");
+            }
+        }
+    }
+    // Enough slots of each kind for the comparisons to mean something.
+    assert!(
+        stopped_together >= 40 && unhit >= 80 && unhit_packets >= 20,
+        "{stopped_together}, {unhit}, {unhit_packets}"
+    );
 }
 
 /// Small deterministic generator (xorshift32) for the real-mesh rays.

@@ -3,7 +3,9 @@
 //! Rays are aimed exactly at vertices and at points on shared edges, where a
 //! non-watertight test lets rays slip through the crack between two
 //! triangles. The meshes are also moved 1e5 units from the origin, where
-//! f32 spacing is ~0.008 and rounding in the test is at its worst.
+//! f32 spacing is ~0.008 and rounding in the test is at its worst. And the
+//! boxes around triangles never shut out a ray that only touches them at
+//! a corner where the triangle test reports a hit.
 
 use glam::Vec3;
 use wavepath::bvh::{Accel, Bvh, TraversalStats};
@@ -127,4 +129,70 @@ fn tessellated_cube_is_watertight() {
         ];
         assert_no_escape(&format!("cube at {c}"), &p, &f, &origins);
     }
+}
+
+/// Rays that touch a triangle's box only at one corner, the triangle's
+/// vertex: they enter the slab of one axis at the very distance at which
+/// they leave another's, and the two distances, computed from different
+/// planes, round apart by an ulp or so. Where the triangle test reports
+/// the touch as a hit, the box test must let the ray in: this is what the
+/// exit distance's widening by 1 + 2γ₃ (Ize) is for. Every coordinate is
+/// a small integer times a power of two, so each ray passes exactly
+/// through the vertex, at every scale.
+#[test]
+fn rays_grazing_a_box_corner_reach_its_vertex() {
+    let mut state = 0x2545_f491u32;
+    let mut int = move |range: i32| {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        (state % (2 * range as u32 + 1)) as i32 - range
+    };
+    let mut touched = 0;
+    for scale in [2f32.powi(-10), 1.0, 2f32.powi(16)] {
+        for _ in 0..400 {
+            let mut vertex = || Vec3::new(int(64) as f32, int(64) as f32, int(64) as f32);
+            let p = [vertex(), vertex(), vertex()].map(|v| v * scale);
+            let soup = [[0u32, 1, 2]];
+            let sah = Bvh::from_triangle_soup(&p, &soup, Accel::Sah);
+            let brute = Bvh::from_triangle_soup(&p, &soup, Accel::None);
+            let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+            let mut rays = Rays::default();
+            for _ in 0..64 {
+                // Through vertex 0, leaving the box at once along each axis
+                // where the vertex is on a face of the box and entering it
+                // along the others.
+                let mut d = Vec3::ZERO;
+                for a in 0..3 {
+                    let step = 1 + int(200).abs();
+                    d[a] = match (p[0][a] == lo[a], p[0][a] == hi[a], int(1) > 0) {
+                        (true, true, _) => step as f32, // a flat box
+                        (true, false, true) | (false, true, false) => -(step as f32),
+                        (true, false, false) | (false, true, true) => step as f32,
+                        (false, false, _) => step as f32,
+                    } * scale;
+                }
+                rays.push(p[0] - d, d, f32::INFINITY);
+            }
+            let mut want = Hits::default();
+            let mut got = Hits::default();
+            let mut stats = TraversalStats::default();
+            brute.intersect(&rays, &mut want, &mut stats, None);
+            sah.intersect(&rays, &mut got, &mut stats, None);
+            let (mut want_occ, mut got_occ) = (Vec::new(), Vec::new());
+            brute.occluded(&rays, &mut want_occ, &mut stats);
+            sah.occluded(&rays, &mut got_occ, &mut stats);
+            for i in 0..rays.len() {
+                let what = format!(
+                    "triangle {p:?}, ray from {} along {}",
+                    rays.origin(i),
+                    rays.direction(i)
+                );
+                assert_eq!(got.is_hit(i), want.is_hit(i), "{what}");
+                assert_eq!(got_occ[i], want_occ[i], "{what}");
+                touched += usize::from(want.is_hit(i));
+            }
+        }
+    }
+    assert!(touched > 1000, "only {touched} rays touched their triangle");
 }

@@ -370,3 +370,131 @@ pub(crate) fn closest<L: RayLanes>(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::traverse::may_hit;
+    use crate::sampling::rng::{hash32, to_unit_float};
+
+    /// One node's step of a packet: the children some ray enters are
+    /// visited nearest first by box centre along the leading ray (exact
+    /// ties: higher slot first, as the single-ray walk breaks them), the
+    /// nearest returned and the rest pushed above what the stack held;
+    /// each carries exactly the rays whose own slab test (the single-ray
+    /// one, with its cull at the ray's `t_max`) enters it, at the entry
+    /// distances that test gives.
+    #[test]
+    fn descend_orders_by_centre_and_agrees_with_single_rays() {
+        let mut draw = 0;
+        let mut next = move || {
+            draw += 1;
+            to_unit_float(hash32(draw))
+        };
+        for trial in 0..300u32 {
+            let sign = Vec3::from([1, 2, 4].map(|b| if trial & b == 0 { 1.0 } else { -1.0 }));
+            let axis_dir = Vec3::new(0.2 + next(), 0.2 + next(), 0.2 + next()).normalize() * sign;
+            let mut org = [[0.0f32; WIDTH]; 3];
+            let mut dir = [[0.0f32; WIDTH]; 3];
+            let mut t_max = [f32::INFINITY; WIDTH];
+            for lane in 0..WIDTH {
+                let o = Vec3::new(next(), next(), next()) - 0.5;
+                let d = axis_dir + (Vec3::new(next(), next(), next()) - 0.5) * 0.2;
+                for a in 0..3 {
+                    org[a][lane] = o[a];
+                    dir[a][lane] = d[a];
+                }
+                if next() < 0.4 {
+                    t_max[lane] = 6.0 + next() * 8.0;
+                }
+            }
+            // Boxes 6 to 14 along the rays, up to 2 aside: some entered by
+            // every ray, some by a few, some by none, some slots empty.
+            let mut lo = [[f32::INFINITY; WIDTH]; 3];
+            let mut hi = [[f32::NEG_INFINITY; WIDTH]; 3];
+            for slot in 0..WIDTH {
+                if next() < 0.15 {
+                    continue;
+                }
+                let c = axis_dir * (6.0 + next() * 8.0)
+                    + (Vec3::new(next(), next(), next()) - 0.5) * 4.0;
+                let h = Vec3::new(next(), next(), next()) * 2.5 + 0.3;
+                for a in 0..3 {
+                    (lo[a][slot], hi[a][slot]) = (c[a] - h[a], c[a] + h[a]);
+                }
+            }
+            if trial % 3 == 0 {
+                // An exact tie of keys (the same box twice).
+                for a in 0..3 {
+                    (lo[a][6], hi[a][6]) = (lo[a][2], hi[a][2]);
+                }
+            }
+            let node = WideNode {
+                bounds: [0, 1, 2].map(|a| [Lanes::from(lo[a]), Lanes::from(hi[a])]),
+                child: std::array::from_fn(|s| ChildRef::node(100 + s as u32)),
+            };
+            let src = Ray8Src {
+                org: org.each_ref().map(|v| &v[..]),
+                dir: dir.each_ref().map(|v| &v[..]),
+                t_max: &t_max,
+            };
+            let scene_box = [[-30.0; 3], [30.0; 3]];
+            let batch_cull = may_hit(&scene_box, 30.0, &src, 0);
+            assert_eq!(batch_cull.mask, 0xff, "trial {trial}: every ray may hit");
+            let (packet, active) =
+                Packet::<Lanes>::new(&src, 0, &[&batch_cull]).expect("rays in one octant");
+            let cull = packet.cull(Packet::<Lanes>::t_best(&ClosestLanes::none(&t_max)));
+            let mut stack = new_packet_stack();
+            let below = PacketEntry {
+                child: 999,
+                mask: 0,
+                t_enter: Lanes::ZERO,
+            };
+            stack.push(below);
+            let nearest = descend(&packet, &node, active, cull, &mut stack);
+
+            // Each ray alone.
+            let mut rays_in = [0u32; WIDTH];
+            let mut t_alone = [[0.0f32; WIDTH]; WIDTH];
+            for lane in 0..WIDTH {
+                let o = Vec3::new(org[0][lane], org[1][lane], org[2][lane]);
+                let (hit, t) = batch_cull.ray_box(lane, o).test_lanes(&node, t_max[lane]);
+                for slot in crate::lanes::each(hit.to_bitmask()) {
+                    rays_in[slot] |= 1 << lane;
+                    t_alone[slot][lane] = t.as_array()[slot];
+                }
+            }
+            let d0 = Vec3::new(dir[0][0], dir[1][0], dir[2][0]);
+            let key = |s: usize| {
+                (lo[0][s] + hi[0][s]) * d0.x
+                    + (lo[1][s] + hi[1][s]) * d0.y
+                    + (lo[2][s] + hi[2][s]) * d0.z
+            };
+            let mut want: Vec<usize> = (0..WIDTH).filter(|&s| rays_in[s] != 0).collect();
+            want.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(b.cmp(&a)));
+
+            // Visit order: the returned child, then pops from the top.
+            let mut visited: Vec<(usize, u32)> = nearest
+                .iter()
+                .map(|&(c, m)| (c.0 as usize - 100, m))
+                .collect();
+            assert_eq!(
+                stack[0].child, 999,
+                "trial {trial}: the entry below was moved"
+            );
+            for e in stack[1..].iter().rev() {
+                let slot = e.child as usize - 100;
+                visited.push((slot, e.mask));
+                for lane in crate::lanes::each(e.mask) {
+                    let (t, want_t) = (e.t_enter.as_array()[lane], t_alone[slot][lane]);
+                    assert_eq!(t.to_bits(), want_t.to_bits(), "trial {trial}, slot {slot}");
+                }
+            }
+            let order: Vec<usize> = visited.iter().map(|v| v.0).collect();
+            assert_eq!(order, want, "trial {trial}: visit order");
+            for (slot, mask) in visited {
+                assert_eq!(mask, rays_in[slot], "trial {trial}, slot {slot}: rays");
+            }
+        }
+    }
+}
