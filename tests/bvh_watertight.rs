@@ -159,18 +159,15 @@ fn rays_grazing_a_box_corner_reach_its_vertex() {
             let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
             let mut rays = Rays::default();
             for _ in 0..64 {
-                // Through vertex 0, leaving the box at once along each axis
-                // where the vertex is on a face of the box and entering it
-                // along the others.
+                // Through vertex 0. Along each axis where the vertex lies
+                // on one face of the box, the ray crosses that face there,
+                // into the box or out of it at random, so that many rays
+                // touch the box at the vertex alone.
                 let mut d = Vec3::ZERO;
                 for a in 0..3 {
-                    let step = 1 + int(200).abs();
-                    d[a] = match (p[0][a] == lo[a], p[0][a] == hi[a], int(1) > 0) {
-                        (true, true, _) => step as f32, // a flat box
-                        (true, false, true) | (false, true, false) => -(step as f32),
-                        (true, false, false) | (false, true, true) => step as f32,
-                        (false, false, _) => step as f32,
-                    } * scale;
+                    let step = (1 + int(200).abs()) as f32 * scale;
+                    let on_face = (p[0][a] == lo[a]) != (p[0][a] == hi[a]);
+                    d[a] = if on_face && int(1) > 0 { -step } else { step };
                 }
                 rays.push(p[0] - d, d, f32::INFINITY);
             }
