@@ -626,8 +626,16 @@ fn stats_and_cost_add_up() {
             "{accel}: every ray costs something"
         );
         let mut occ = Vec::new();
+        let mut any_hit = TraversalStats::default();
+        bvh.occluded(&rays, &mut occ, &mut any_hit);
+        let closest = stats;
         bvh.occluded(&rays, &mut occ, &mut stats);
         assert_eq!(stats.rays, 2 * rays.len() as u64);
+        // Counters of two queries add up field by field, either way.
+        let mut sum = closest;
+        sum += any_hit;
+        assert_eq!(sum, stats, "{accel}");
+        assert!(any_hit.rays == rays.len() as u64 && any_hit.primitives_tested > 0);
         assert!(bvh.memory_bytes() > 0 && bvh.primitive_count() == 101);
     }
 }
@@ -721,6 +729,56 @@ fn every_path_counts_each_rays_own_work() {
         stopped_together >= 40 && unhit >= 80 && unhit_packets >= 20,
         "{stopped_together}, {unhit}, {unhit_packets}"
     );
+}
+
+/// What a structure reports about itself (`--stats` prints it): its
+/// kind, a tree of several wide levels over 1000 triangles in groups of
+/// eight, at least a cache line per node and per group. Rays that miss
+/// the scene's bounds cost one node visit each, on both queries, in full
+/// and partly filled batch slots.
+#[test]
+fn structure_sizes_and_missed_rays() {
+    let mut rng = Rng(0xc0ff_ee11);
+    let tris: Vec<(Vec3, Vec3, Vec3)> = (0..1000)
+        .map(|_| (rng.vec3() * 4.0, rng.vec3() * 0.1, rng.vec3() * 0.1))
+        .collect();
+    let g = soup(tris, Vec::new());
+    let mut away = Rays::default();
+    for i in 0..20 {
+        away.push(
+            Vec3::new(-1.0, 0.1 * i as f32, 0.0),
+            -Vec3::X,
+            f32::INFINITY,
+        );
+    }
+    for accel in [Accel::Sah, Accel::Median, Accel::None] {
+        let bvh = Bvh::build(&g, accel);
+        assert_eq!(bvh.accel(), accel);
+        let groups = bvh.triangle_group_count();
+        assert!(
+            (1000usize.div_ceil(8)..=1000).contains(&groups),
+            "{accel}: {groups}"
+        );
+        let (nodes, depth) = (bvh.node_count(), bvh.depth());
+        if accel == Accel::None {
+            assert_eq!((nodes, depth), (0, 0));
+        } else {
+            assert!(
+                nodes >= 1000 / 64 && (2..=nodes).contains(&depth),
+                "{accel}: {nodes}, {depth}"
+            );
+        }
+        assert!(bvh.memory_bytes() >= 64 * (nodes + groups), "{accel}");
+        let mut stats = TraversalStats::default();
+        bvh.intersect(&away, &mut Hits::default(), &mut stats, None);
+        let mut occluded = Vec::new();
+        bvh.occluded(&away, &mut occluded, &mut stats);
+        assert!(occluded.iter().all(|&o| !o));
+        if accel != Accel::None {
+            assert_eq!(stats.nodes_visited, 2 * away.len() as u64, "{accel}");
+            assert_eq!(stats.primitives_tested, 0, "{accel}");
+        }
+    }
 }
 
 /// Small deterministic generator (xorshift32) for the real-mesh rays.
