@@ -476,13 +476,7 @@ fn rays_in_box_face_planes() {
 fn soup_far_from_the_origin() {
     let mut rng = Rng(0x5eed_f00d);
     for offset in [Vec3::splat(1.0e5), Vec3::new(-3.0e5, 2.0e4, 1.0e5)] {
-        let tris: Vec<(Vec3, Vec3, Vec3)> = (0..500)
-            .map(|_| {
-                let corner = offset + (rng.vec3() - Vec3::splat(0.5)) * 8.0;
-                let edge = |rng: &mut Rng| (rng.vec3() - Vec3::splat(0.5)) * 2.0;
-                (corner, edge(&mut rng), edge(&mut rng))
-            })
-            .collect();
+        let tris = random_tris(&mut rng, 500, offset, 8.0, 2.0);
         let g = soup(tris, vec![(offset, 0.7)]);
         let mut rays = Rays::default();
         for i in 0..2000 {
@@ -651,13 +645,7 @@ fn stats_and_cost_add_up() {
 #[test]
 fn every_path_counts_each_rays_own_work() {
     let mut rng = Rng(0x1234_5678);
-    let tris: Vec<(Vec3, Vec3, Vec3)> = (0..300)
-        .map(|_| {
-            let corner = rng.vec3() * 2.0 - Vec3::ONE;
-            let edge = |rng: &mut Rng| (rng.vec3() - Vec3::splat(0.5)) * 0.5;
-            (corner, edge(&mut rng), edge(&mut rng))
-        })
-        .collect();
+    let tris = random_tris(&mut rng, 300, Vec3::ZERO, 2.0, 0.5);
     let spheres = vec![
         (Vec3::new(0.3, -0.2, 0.1), 0.15),
         (Vec3::new(-0.5, 0.4, 0.6), 0.1),
@@ -739,9 +727,7 @@ fn every_path_counts_each_rays_own_work() {
 #[test]
 fn structure_sizes_and_missed_rays() {
     let mut rng = Rng(0xc0ff_ee11);
-    let tris: Vec<(Vec3, Vec3, Vec3)> = (0..1000)
-        .map(|_| (rng.vec3() * 4.0, rng.vec3() * 0.1, rng.vec3() * 0.1))
-        .collect();
+    let tris = random_tris(&mut rng, 1000, Vec3::splat(2.0), 4.0, 0.2);
     let g = soup(tris, Vec::new());
     let mut away = Rays::default();
     for i in 0..20 {
@@ -794,6 +780,28 @@ impl Rng {
     fn vec3(&mut self) -> Vec3 {
         Vec3::new(self.next(), self.next(), self.next())
     }
+}
+
+/// `n` random triangles for `soup`: a corner in the cube of side `size`
+/// around `centre`, two edge vectors with components within ±`edge`/2.
+fn random_tris(
+    rng: &mut Rng,
+    n: usize,
+    centre: Vec3,
+    size: f32,
+    edge: f32,
+) -> Vec<(Vec3, Vec3, Vec3)> {
+    let around = |rng: &mut Rng, c: Vec3, s: f32| c + (rng.vec3() - Vec3::splat(0.5)) * s;
+    (0..n)
+        .map(|_| {
+            let corner = around(rng, centre, size);
+            (
+                corner,
+                around(rng, Vec3::ZERO, edge),
+                around(rng, Vec3::ZERO, edge),
+            )
+        })
+        .collect()
 }
 
 /// Real meshes from the CS184 scene collection, when present: camera rays
