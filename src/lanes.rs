@@ -402,6 +402,21 @@ mod tests {
     }
 
     #[test]
+    fn a_lane_is_finite_only_when_all_three_components_are() {
+        // One bad component in each position, each kind of bad, and a
+        // lane with none: the mask must be glam's `is_finite` lane by lane.
+        let bad = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY];
+        let mut vs = [Vec3::new(1.0, -2.0, 3.0); LANES];
+        for (lane, v) in vs.iter_mut().enumerate().skip(1) {
+            v[(lane - 1) % 3] = bad[(lane - 1) / 3 % 3];
+        }
+        let mask = Vec3x8::gather(&vs).is_finite().to_bitmask();
+        for (lane, v) in vs.iter().enumerate() {
+            assert_eq!(mask & (1 << lane) != 0, v.is_finite(), "{v}");
+        }
+    }
+
+    #[test]
     fn lane_normalisation_is_the_scalar_one() {
         let vs: [Vec3; LANES] = [
             Vec3::new(0.3, -0.4, 1.2),
