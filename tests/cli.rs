@@ -205,7 +205,6 @@ fn nonsense_values_are_refused_with_a_usage_hint() {
         vec!["-t", "4294967295", scene],
         // Found before rendering, not after.
         vec!["-f", "no/such/folder/out.exr", scene],
-        vec!["-b", "-1", scene],
         vec!["-f", "out.jpg", scene],
         vec!["--shading", "wireframe", scene],
         vec!["-e", "sky.exr", scene],
@@ -222,6 +221,43 @@ fn nonsense_values_are_refused_with_a_usage_hint() {
         assert!(err.starts_with("error: "), "{args:?}: {err}");
         assert!(err.contains("--help"), "{args:?}: no usage hint: {err}");
         assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    // Values of the right type that break a rule of their flag: the
+    // message names the flag and the value (not clap's "unexpected
+    // argument '-1'", which a negative number would otherwise get).
+    for (args, says) in [
+        (
+            ["-b", "-1"],
+            "-b: lens radius must be a non-negative number, got -1",
+        ),
+        (
+            ["-b", "inf"],
+            "-b: lens radius must be a non-negative number, got inf",
+        ),
+        (
+            ["-b", "NaN"],
+            "-b: lens radius must be a non-negative number, got NaN",
+        ),
+        (
+            ["-d", "0"],
+            "-d: focal distance must be a positive number, got 0",
+        ),
+        (
+            ["-d", "-2"],
+            "-d: focal distance must be a positive number, got -2",
+        ),
+        (
+            ["-d", "inf"],
+            "-d: focal distance must be a positive number, got inf",
+        ),
+    ] {
+        let o = wavepath(&[args[0], args[1], scene]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.starts_with(&format!("error: {says}")),
+            "{args:?}: {err}"
+        );
     }
 }
 
@@ -883,4 +919,67 @@ fn camera_settings_files_set_the_view() {
     let err = stderr(&o);
     assert!(err.contains(&format!("-c {}", bad.display())), "{err}");
     assert!(!err.contains("no/such/scene.dae"), "{err}");
+}
+
+/// The rate image (and the EXR's `samples` channel) come with adaptive
+/// sampling only: not with one sample per pixel, a tolerance of 0 (which
+/// can never be met: fixed sampling, as the README says), `--no-adaptive`,
+/// or a view that is not an estimate (nothing converges).
+#[test]
+fn a_rate_image_only_where_sampling_is_adaptive() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    for (name, args, adaptive) in [
+        ("rate-on", &["-s", "8", "-a", "4", "0.5"][..], true),
+        ("rate-one-spp", &["-s", "1", "-a", "4", "0.5"][..], false),
+        ("rate-zero-tol", &["-s", "8", "-a", "4", "0"][..], false),
+        ("rate-fixed", &["-s", "8", "--no-adaptive"][..], false),
+        (
+            "rate-normals",
+            &["-s", "8", "--shading", "normals"][..],
+            false,
+        ),
+        (
+            "rate-cost",
+            &["-s", "8", "--shading", "bvh-cost"][..],
+            false,
+        ),
+    ] {
+        let out = scratch(&format!("{name}.exr"));
+        let _ = scratch(&format!("{name}_rate.png"));
+        let o = render_to(scene, &out, &[&["-q", "-r", "16", "12"], args].concat());
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        assert_eq!(
+            scratch_exists(&format!("{name}_rate.png")),
+            adaptive,
+            "{name}"
+        );
+        let image = read_image(&out).unwrap();
+        assert_eq!(image.samples.iter().any(|&n| n > 0), adaptive, "{name}");
+    }
+}
+
+/// Without `-q` a render ends with what it wrote (file, size, samples per
+/// pixel on average) and its timings on stderr; with `-q`, with nothing.
+#[test]
+fn the_closing_report_says_what_was_written_unless_quiet() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    let out = scratch("report.png");
+    let args = ["--no-adaptive", "-s", "3", "-r", "20", "10", "-t", "1"];
+    let o = render_to(scene, &out, &args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    let wrote = format!(
+        "wrote {} (20x10, 3.0 samples/pixel on average)",
+        out.display()
+    );
+    assert!(err.contains(&wrote), "{err}");
+    assert!(
+        err.contains("render ") && err.contains("on 1 thread |"),
+        "{err}"
+    );
+    assert!(err.contains("Mrays/s"), "{err}");
+
+    let o = render_to(scene, &out, &[&["-q"], &args[..]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stderr(&o), "");
 }

@@ -448,3 +448,141 @@ fn converge_plots_extreme_values_without_hanging() {
     let svg = std::fs::read_to_string(dir.join("runs.svg")).unwrap();
     assert!(svg.contains("<svg"));
 }
+
+/// `--diff-scale` must be a positive number (named in the refusal, before
+/// any file is read); a good one is used and printed.
+#[test]
+fn compare_takes_a_positive_diff_scale_only() {
+    let dir = scratch("compare_scale");
+    let (a, b) = (dir.join("a.exr"), dir.join("b.exr"));
+    render(&a, 16, 12, 2, 1);
+    render(&b, 16, 12, 2, 2);
+    let diff = dir.join("d.png");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    for bad in ["0", "-1", "inf", "NaN"] {
+        let o = wavepath(&[
+            "compare",
+            &s(&a),
+            &s(&b),
+            "--diff",
+            &s(&diff),
+            "--diff-scale",
+            bad,
+        ]);
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{bad}: {err}");
+        assert!(
+            err.contains(&format!(
+                "--diff-scale must be a positive number, got {bad}"
+            )),
+            "{bad}: {err}"
+        );
+        assert!(!diff.exists(), "{bad}");
+    }
+    let o = wavepath(&[
+        "compare",
+        &s(&a),
+        &s(&b),
+        "--diff",
+        &s(&diff),
+        "--diff-scale",
+        "0.5",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stdout).contains("red >= 5.000e-1"),
+        "{}",
+        text(&o.stdout)
+    );
+    assert!(diff.is_file());
+}
+
+/// What `compare` adds beyond the metrics depends on the files: a warning
+/// naming a file with NaN or infinite pixels; the reference's own noise
+/// when the reference carries standard errors; the same-mean test only
+/// when both do.
+#[test]
+fn compare_says_what_the_files_allow_and_no_more() {
+    use glam::Vec3;
+    use wavepath::film::Image;
+    use wavepath::film::output::{write_exr, write_exr_with_error};
+    let dir = scratch("compare_extras");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let mut plain = Image::new(8, 4);
+    plain.pixels.fill(Vec3::splat(0.5));
+    let mut noisy = plain.clone();
+    noisy.variance.fill(Vec3::splat(1e-4));
+    noisy.samples.fill(16);
+    write_exr(&plain, &dir.join("plain.exr"), false).unwrap();
+    write_exr_with_error(&noisy, &dir.join("noisy.exr")).unwrap();
+    // wavepath writes non-finite pixels as 0, so this file is written
+    // directly: two bad pixels in 8×4.
+    exr::prelude::write_rgb_file(dir.join("broken.exr"), 8, 4, |x, y| match (x, y) {
+        (3, 0) => (f32::NAN, 0.5, 0.5),
+        (1, 1) => (0.5, f32::INFINITY, 0.5),
+        _ => (0.5, 0.5, 0.5),
+    })
+    .unwrap();
+    let compare = |image: &str, reference: &str| {
+        let o = wavepath(&[
+            "compare",
+            &s(&dir.join(format!("{image}.exr"))),
+            &s(&dir.join(format!("{reference}.exr"))),
+        ]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        (text(&o.stdout), text(&o.stderr))
+    };
+    let says = |out: &str| {
+        (
+            out.contains("reference noise"),
+            out.contains("same-mean test"),
+        )
+    };
+
+    let (out, err) = compare("plain", "plain");
+    assert_eq!(says(&out), (false, false), "{out}");
+    assert_eq!(err, "");
+    let (out, _) = compare("plain", "noisy");
+    assert_eq!(says(&out), (true, false), "{out}");
+    let (out, _) = compare("noisy", "plain");
+    assert_eq!(says(&out), (false, false), "{out}");
+    let (out, _) = compare("noisy", "noisy");
+    assert_eq!(says(&out), (true, true), "{out}");
+    assert!(out.contains("consistent"), "{out}");
+
+    let (_, err) = compare("broken", "plain");
+    assert!(
+        err.contains("broken.exr: 2 pixels are NaN or infinite"),
+        "{err}"
+    );
+    assert!(!err.contains("plain.exr"), "{err}");
+    let (_, err) = compare("plain", "broken");
+    assert!(
+        err.contains("broken.exr: 2 pixels are NaN or infinite"),
+        "{err}"
+    );
+}
+
+/// A report that cannot be written (a full disk: `/dev/full`) is an
+/// error naming stdout, not a silent success; a reader that went away is
+/// not (`compare_goes_quietly_when_its_reader_stops_reading`).
+#[test]
+fn compare_fails_when_its_report_cannot_be_written() {
+    let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
+        eprintln!("skipped: no /dev/full on this system");
+        return;
+    };
+    let dir = scratch("compare_full");
+    let image = dir.join("a.exr");
+    render(&image, 8, 6, 1, 0);
+    let path = image.to_str().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_wavepath"))
+        .args(["compare", path, path])
+        .stdout(full)
+        .output()
+        .unwrap();
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("cannot write to stdout"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}

@@ -104,10 +104,13 @@ pub struct Args {
     pub envmap: Option<PathBuf>,
 
     /// Thin-lens aperture radius (0 = pinhole)
+    // Negative numbers reach `validate`, whose message names the flag and
+    // the rule (clap would call `-1` an unknown flag).
     #[arg(
         short = 'b',
         long = "lens-radius",
         value_name = "R",
+        allow_negative_numbers = true,
         default_value_t = 0.0
     )]
     pub lens_radius: f32,
@@ -117,6 +120,7 @@ pub struct Args {
         short = 'd',
         long = "focal-distance",
         value_name = "D",
+        allow_negative_numbers = true,
         default_value_t = 4.7
     )]
     pub focal_distance: f32,

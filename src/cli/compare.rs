@@ -36,7 +36,7 @@ pub struct CompareArgs {
     #[arg(long = "diff", value_name = "PNG")]
     pub diff: Option<PathBuf>,
     /// Relative error shown as full red in --diff [default: the 99th percentile]
-    #[arg(long = "diff-scale", value_name = "E")]
+    #[arg(long = "diff-scale", value_name = "E", allow_negative_numbers = true)]
     pub diff_scale: Option<f32>,
     /// Curve PNG inputs were encoded with (wavepath writes `reference` unless told otherwise)
     #[arg(long = "tonemap", value_enum, default_value_t = ToneCurve::Reference)]
@@ -216,4 +216,89 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
         );
     }
     Ok(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_ramp_runs_black_blue_green_yellow_red_and_clamps() {
+        let stops = [
+            (0.0, Vec3::ZERO),
+            (0.25, Vec3::Z),
+            (0.5, Vec3::Y),
+            (0.75, Vec3::new(1.0, 1.0, 0.0)),
+            (1.0, Vec3::X),
+        ];
+        for (t, c) in stops {
+            assert_eq!(error_colour(t), c, "{t}");
+        }
+        // Linear between stops.
+        assert!((error_colour(0.125) - Vec3::new(0.0, 0.0, 0.5)).length() < 1e-6);
+        assert!((error_colour(0.375) - Vec3::new(0.0, 0.5, 0.5)).length() < 1e-6);
+        assert!((error_colour(0.625) - Vec3::new(0.5, 1.0, 0.0)).length() < 1e-6);
+        assert!((error_colour(0.875) - Vec3::new(1.0, 0.5, 0.0)).length() < 1e-6);
+        // Outside [0, 1], and errors that are not numbers: the ends.
+        assert_eq!(error_colour(-3.0), Vec3::ZERO);
+        assert_eq!(error_colour(7.0), Vec3::X);
+        assert_eq!(error_colour(f32::NAN), Vec3::X);
+        assert_eq!(error_colour(f32::INFINITY), Vec3::X);
+    }
+
+    /// The map's scale is the 99th percentile of the per-pixel errors (so
+    /// one pixel in a hundred shows full red), or what `--diff-scale`
+    /// says; each pixel is the ramp at error / scale, rounded to 8 bits.
+    /// Identical images give scale 1 and a black map.
+    #[test]
+    fn the_diff_map_is_the_ramp_at_error_over_the_99th_percentile() {
+        let (w, h) = (20, 10);
+        let mut reference = Image::new(w, h);
+        reference.pixels.fill(Vec3::ONE);
+        let mut image = reference.clone();
+        // Pixel i is off by i/200 of the reference, in one channel or all.
+        for (i, p) in image.pixels.iter_mut().enumerate() {
+            let e = i as f32 / 200.0;
+            *p = if i % 2 == 0 {
+                Vec3::splat(1.0 + e)
+            } else {
+                Vec3::new(1.0 + 3.0 * e, 1.0, 1.0)
+            };
+        }
+        let errors = metrics::relative_error_map(&image, &reference).unwrap();
+        let mut sorted = errors.clone();
+        sorted.sort_by(f32::total_cmp);
+
+        let dir = std::env::temp_dir().join(format!("wavepath-diff-unit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("diff.png");
+        let check = |scale: f32| {
+            let png = image::open(&path).unwrap().to_rgb8();
+            assert_eq!(png.dimensions(), (w, h));
+            for (i, px) in png.pixels().enumerate() {
+                let c = error_colour(errors[i] / scale);
+                let want = [c.x, c.y, c.z].map(|v| (255.0 * v).round() as u8);
+                assert_eq!(px.0, want, "pixel {i}, error {}", errors[i]);
+            }
+        };
+        // 200 pixels: the 99th percentile is the second largest error.
+        let scale = write_diff(&image, &reference, &path, None).unwrap();
+        assert_eq!(scale, sorted[198]);
+        assert!(scale < sorted[199] && scale > 0.0);
+        check(scale);
+
+        assert_eq!(
+            write_diff(&image, &reference, &path, Some(0.5)).unwrap(),
+            0.5
+        );
+        check(0.5);
+
+        assert_eq!(
+            write_diff(&reference, &reference, &path, None).unwrap(),
+            1.0
+        );
+        let png = image::open(&path).unwrap().to_rgb8();
+        assert!(png.pixels().all(|p| p.0 == [0, 0, 0]));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

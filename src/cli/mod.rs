@@ -411,3 +411,59 @@ pub fn run() -> Result<i32> {
     }
     Ok(0)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_region_may_reach_the_images_edges_but_not_past_them() {
+        // The whole 64×48 image, and cells flush with its right and top
+        // edges; rows from the bottom become rows from the top.
+        let whole = region(&[0, 0, 64, 48], 64, 48).unwrap();
+        assert_eq!(
+            (whole.x0, whole.y0, whole.width, whole.height),
+            (0, 0, 64, 48)
+        );
+        let top_right = region(&[60, 45, 4, 3], 64, 48).unwrap();
+        assert_eq!(
+            (
+                top_right.x0,
+                top_right.y0,
+                top_right.width,
+                top_right.height
+            ),
+            (60, 0, 4, 3)
+        );
+        let bottom_left = region(&[0, 0, 1, 1], 64, 48).unwrap();
+        assert_eq!((bottom_left.x0, bottom_left.y0), (0, 47));
+        for past in [[61, 0, 4, 3], [0, 46, 4, 3], [64, 0, 1, 1], [0, 48, 1, 1]] {
+            let e = region(&past, 64, 48).unwrap_err();
+            assert!(e.contains("reaches past the 64×48 image"), "{past:?}: {e}");
+        }
+        // Sums that would overflow u32 are still refused, not wrapped.
+        assert!(region(&[u32::MAX, 0, 2, 1], 64, 48).is_err());
+        assert!(region(&[0, 0, 0, 1], 64, 48).unwrap_err().contains("1×1"));
+    }
+
+    #[test]
+    fn the_pixel_limit_is_inclusive() {
+        let side = 1u32 << (crate::film::MAX_PIXELS.trailing_zeros() / 2);
+        assert!(check_pixel_count(&[side, side]).is_ok());
+        assert!(check_pixel_count(&[side, side + 1]).is_err());
+        assert!(check_pixel_count(&[65536, 65536]).is_err());
+    }
+
+    #[test]
+    fn camera_files_are_read_up_to_64_kib() {
+        let dir = std::env::temp_dir().join(format!("wavepath-cli-unit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("camera.txt");
+        std::fs::write(&file, " ".repeat(1 << 16)).unwrap();
+        assert_eq!(read_camera_file(&file).unwrap().len(), 1 << 16);
+        std::fs::write(&file, " ".repeat((1 << 16) + 1)).unwrap();
+        let e = read_camera_file(&file).unwrap_err().to_string();
+        assert!(e.contains("camera.txt") && e.contains("64 KiB"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
