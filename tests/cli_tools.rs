@@ -586,3 +586,268 @@ fn compare_fails_when_its_report_cannot_be_written() {
     assert!(err.contains("cannot write to stdout"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// Runs `wavepath converge` in `dir` with `args`; must succeed. Returns
+/// stdout and stderr.
+fn converge(dir: &Path, args: &[&str]) -> (String, String) {
+    let o = wavepath_in(dir, &[&["converge"], args, &[SCENE]].concat());
+    assert!(o.status.success(), "{args:?}: {}", text(&o.stderr));
+    (text(&o.stdout), text(&o.stderr))
+}
+
+/// The CSV's rows as (estimator, spp, seconds, relMSE, relMSE less the
+/// reference's noise, CPU seconds).
+fn csv_rows(path: &Path) -> Vec<(String, u32, f64, f64, f64, f64)> {
+    let csv = std::fs::read_to_string(path).unwrap();
+    csv.lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let n = |i: usize| f[i].parse::<f64>().unwrap();
+            (f[0].to_string(), n(1) as u32, n(2), n(3), n(5), n(6))
+        })
+        .collect()
+}
+
+/// Flags of `converge` that break their rule are refused, naming the flag
+/// and the value, before anything is rendered.
+#[test]
+fn converge_refuses_bad_budgets_and_targets() {
+    let dir = scratch("converge_flags");
+    render(&dir.join("ref.exr"), 8, 6, 4, 0);
+    let base = ["-q", "-r", "8", "6", "--ref", "ref.exr"];
+    for (flags, says) in [
+        (
+            &["--seconds", "0"][..],
+            "--seconds must be a positive number, got 0",
+        ),
+        (
+            &["--seconds", "inf"][..],
+            "--seconds must be a positive number, got inf",
+        ),
+        (
+            &["--seconds=-1"][..],
+            "--seconds must be a positive number, got -1",
+        ),
+        (
+            &["--targets", "1e-2,0"][..],
+            "--targets must be positive numbers, got 0",
+        ),
+        (
+            &["--targets", "inf"][..],
+            "--targets must be positive numbers, got inf",
+        ),
+        (
+            &["--targets=-1e-3"][..],
+            "--targets must be positive numbers, got -0.001",
+        ),
+        (
+            &["--make-reference", "--estimators", "hemisphere,light"][..],
+            "--make-reference renders one estimator",
+        ),
+    ] {
+        let o = wavepath_in(&dir, &[&["converge"], &base[..], flags, &[SCENE]].concat());
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{flags:?}: {err}");
+        assert!(err.contains(says), "{flags:?}: {err}");
+        assert!(!dir.join("converge.csv").exists(), "{flags:?}");
+    }
+}
+
+/// Budgets double from 1 to `--max-spp` (256 by default); `--seconds`
+/// stops the doubling after the first render that takes that long, and
+/// without `--max-spp` time alone stops it, past 256.
+#[test]
+fn converge_doubles_budgets_until_told_to_stop() {
+    let dir = scratch("converge_budgets");
+    render(&dir.join("ref.exr"), 8, 6, 4, 0);
+    let base = ["-q", "-m", "1", "-r", "8", "6", "--ref", "ref.exr"];
+    let budgets = |extra: &[&str]| -> Vec<(u32, f64)> {
+        converge(&dir, &[&base[..], extra].concat());
+        csv_rows(&dir.join("converge.csv"))
+            .iter()
+            .map(|r| (r.1, r.2))
+            .collect()
+    };
+    let spps = |rows: &[(u32, f64)]| rows.iter().map(|r| r.0).collect::<Vec<_>>();
+    assert_eq!(spps(&budgets(&[])), [1, 2, 4, 8, 16, 32, 64, 128, 256]);
+    assert_eq!(spps(&budgets(&["--max-spp", "4"])), [1, 2, 4]);
+    // Every render takes more than a nanosecond: one budget.
+    assert_eq!(
+        spps(&budgets(&["--max-spp", "4", "--seconds", "1e-9"])),
+        [1]
+    );
+    // 256 samples of 48 pixels take far less than 0.25 s: the doubling
+    // goes on past the default cap and stops at the first render that
+    // took 0.25 s.
+    let rows = budgets(&["--seconds", "0.25"]);
+    let (last, earlier) = rows.split_last().unwrap();
+    assert!(last.0 > 256 && last.1 >= 0.25, "{rows:?}");
+    assert!(earlier.iter().all(|r| r.1 < 0.25), "{rows:?}");
+}
+
+/// What converge says of its reference and errors: a reference without
+/// standard-error channels is warned about and nothing is subtracted; one
+/// made by `--make-reference` has its own relMSE printed, drawn in the
+/// plot and subtracted in the CSV and in the "less the reference's noise"
+/// times (from wall and from CPU time); each estimator's times come from
+/// its own renders; CPU times are within what the threads could use.
+#[test]
+fn converge_reports_each_estimator_against_the_references_noise() {
+    let dir = scratch("converge_noise");
+    let base = ["-m", "2", "-r", "24", "18", "-t", "2"];
+    // A noisy reference (4 spp, as many as the renders measured against
+    // it), so that its own relMSE is about half the measured one; the line
+    // before the render unless -q.
+    let (out, err) = converge(
+        &dir,
+        &[
+            &base[..],
+            &[
+                "--make-reference",
+                "-s",
+                "4",
+                "--estimators",
+                "light",
+                "--ref",
+                "ref.exr",
+            ],
+        ]
+        .concat(),
+    );
+    assert!(err.contains("rendering the reference: "), "{err}");
+    let floor: f64 = out
+        .split("own relMSE, estimated from its variance: ")
+        .nth(1)
+        .and_then(|v| v.trim().parse().ok())
+        .expect(&out);
+    assert!(floor > 0.0, "{out}");
+    let (_, err) = converge(
+        &dir,
+        &[
+            &base[..],
+            &["-q", "--make-reference", "-s", "1", "--ref", "quiet.exr"],
+        ]
+        .concat(),
+    );
+    assert_eq!(err, "");
+
+    let run = [
+        "-q",
+        "--ref",
+        "ref.exr",
+        "--estimators",
+        "hemisphere,light",
+        "--max-spp",
+        "4",
+    ];
+    let (out, err) = converge(&dir, &[&base[..], &run[..]].concat());
+    assert_eq!(err, "");
+    assert!(out.contains("own relMSE about"), "{out}");
+    let svg = std::fs::read_to_string(dir.join("converge.svg")).unwrap();
+    assert!(svg.contains("reference noise"), "the floor is drawn");
+    let rows = csv_rows(&dir.join("converge.csv"));
+    for r in &rows {
+        // Printed to four digits, and the floor to three.
+        assert!(
+            (r.4 - (r.3 - floor)).abs() <= 1e-3 * r.3 + 1e-3 * floor,
+            "{r:?}"
+        );
+        // Two 10 ms ticks of slack on the CPU time of two threads.
+        assert!(r.5 >= 0.0 && r.5 <= 2.0 * r.2 + 0.025, "{r:?}");
+    }
+    let best = |name: &str| {
+        rows.iter()
+            .filter(|r| r.0 == name)
+            .map(|r| r.3)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let (light, hemisphere) = (best("light"), best("hemisphere"));
+    // Between the two estimators' best errors: light sampling reaches it,
+    // uniform hemisphere sampling does not.
+    let between = (light * hemisphere).sqrt();
+    assert!(
+        hemisphere - floor > 1.5 * between && light < between / 1.5,
+        "{rows:?}"
+    );
+    // Below light sampling's best measured error, above that error less
+    // the reference's noise: reached only once the noise is subtracted.
+    let below = light - 0.5 * floor;
+    assert!(
+        light - floor < 0.9 * below && below < 0.95 * light,
+        "{rows:?}"
+    );
+
+    let targets = format!("{between:e},{below:e}");
+    let (out, _) = converge(
+        &dir,
+        &[&base[..], &run[..], &["--targets", &targets]].concat(),
+    );
+    let lines: Vec<&str> = out
+        .lines()
+        .filter(|l| l.contains(": time to relMSE <="))
+        .collect();
+    let line = |estimator: &str, k: usize, cpu: bool| {
+        lines
+            .iter()
+            .filter(|l| l.starts_with(&format!("{estimator}: ")) && l.contains("CPU time") == cpu)
+            .nth(k)
+            .copied()
+            .expect(&out)
+    };
+    for cpu in [false, true] {
+        assert!(
+            line("hemisphere", 0, cpu).ends_with("not reached (less the reference's noise)"),
+            "{out}"
+        );
+        assert!(
+            !line("light", 0, cpu).ends_with("not reached (less the reference's noise)"),
+            "{out}"
+        );
+        assert!(
+            !line("light", 1, cpu).ends_with("not reached (less the reference's noise)"),
+            "{out}"
+        );
+    }
+    assert!(
+        line("hemisphere", 0, false).contains("not reached (measured)"),
+        "{out}"
+    );
+    assert!(
+        !line("light", 0, false).contains("not reached (measured)"),
+        "{out}"
+    );
+    assert!(
+        line("light", 1, false).contains("not reached (measured)"),
+        "{out}"
+    );
+
+    // A reference without standard errors: warned about, no floor.
+    render(&dir.join("plain.exr"), 24, 18, 16, 7);
+    let (out, err) = converge(
+        &dir,
+        &[
+            &base[..],
+            &[
+                "-q",
+                "--ref",
+                "plain.exr",
+                "--max-spp",
+                "2",
+                "--plot",
+                "plain.svg",
+            ],
+        ]
+        .concat(),
+    );
+    assert!(
+        err.contains("plain.exr has no standard-error channels"),
+        "{err}"
+    );
+    assert!(!out.contains("own relMSE"), "{out}");
+    let svg = std::fs::read_to_string(dir.join("plain.svg")).unwrap();
+    assert!(!svg.contains("reference noise"));
+    for r in csv_rows(&dir.join("converge.csv")) {
+        assert_eq!(r.3, r.4, "{r:?}");
+    }
+}

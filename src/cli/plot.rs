@@ -117,3 +117,121 @@ pub fn error_vs_time(
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The numbers of the attribute `name` in every `<tag …>` of `svg`.
+    fn attributes(svg: &str, tag: &str, name: &str) -> Vec<String> {
+        svg.split(&format!("<{tag} "))
+            .skip(1)
+            .filter_map(|t| {
+                let t = format!(" {t}");
+                let value = t.split(&format!(" {name}=\"")).nth(1)?;
+                Some(value.split('"').next()?.to_string())
+            })
+            .collect()
+    }
+
+    fn plot(curves: &[Curve], floor: Option<(f64, &str)>) -> Result<String> {
+        // A folder per call: the tests run at once.
+        let dir = std::env::temp_dir().join(format!(
+            "wavepath-plot-unit-{}-{}-{:?}",
+            std::process::id(),
+            curves.len(),
+            floor.map(|f| f.0)
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(format!("p{}.svg", curves.len()));
+        let result = error_vs_time(&path, "t", "relMSE", curves, floor)
+            .map(|_| std::fs::read_to_string(&path).unwrap());
+        let _ = std::fs::remove_dir_all(&dir);
+        result
+    }
+
+    /// Each point sits where the log–log axes put it: the axes span the
+    /// points' range padded by a factor of 1.5 at each end (so no point
+    /// is on the frame); points a log axis cannot show are left out; each
+    /// curve has its own colour.
+    #[test]
+    fn points_land_where_the_padded_log_axes_put_them() {
+        let curves = [
+            Curve {
+                name: "a".into(),
+                points: vec![(0.01, 1e-1), (0.1, 1e-2), (1.0, 1e-3), (0.5, f64::NAN)],
+            },
+            Curve {
+                name: "b".into(),
+                points: vec![(0.1, 0.0), (0.1, 1e-2)],
+            },
+        ];
+        let svg = plot(&curves, None).unwrap();
+        // The axes: the longest black vertical and horizontal lines.
+        let lines = attributes(&svg, "polyline", "points");
+        let ends: Vec<[f64; 4]> = lines
+            .iter()
+            .filter_map(|p| {
+                let v: Vec<f64> = p.split([',', ' ']).filter_map(|s| s.parse().ok()).collect();
+                (v.len() == 4).then(|| [v[0], v[1], v[2], v[3]])
+            })
+            .collect();
+        let y_axis = ends
+            .iter()
+            .filter(|e| e[0] == e[2])
+            .max_by_key(|e| (e[3] - e[1]).abs() as i64)
+            .unwrap();
+        let x_axis = ends
+            .iter()
+            .filter(|e| e[1] == e[3])
+            .max_by_key(|e| (e[2] - e[0]).abs() as i64)
+            .unwrap();
+        let (left, right) = (x_axis[0].min(x_axis[2]), x_axis[0].max(x_axis[2]));
+        let (top, bottom) = (y_axis[1].min(y_axis[3]), y_axis[1].max(y_axis[3]));
+        // Two decades and 2·log10(1.5) of padding on each axis.
+        let span = 2.0 + 2.0 * 1.5f64.log10();
+        let pad = 1.5f64.log10();
+        let want_x = |x: f64| left + (x.log10() + 2.0 + pad) / span * (right - left);
+        let want_y = |y: f64| bottom - (y.log10() + 3.0 + pad) / span * (bottom - top);
+        let cx = attributes(&svg, "circle", "cx");
+        let cy = attributes(&svg, "circle", "cy");
+        let fill = attributes(&svg, "circle", "fill");
+        let want = [(0.01, 1e-1), (0.1, 1e-2), (1.0, 1e-3), (0.1, 1e-2)];
+        assert_eq!(cx.len(), want.len(), "one circle per plottable point");
+        for (i, (x, y)) in want.into_iter().enumerate() {
+            let (px, py): (f64, f64) = (cx[i].parse().unwrap(), cy[i].parse().unwrap());
+            assert!(
+                (px - want_x(x)).abs() <= 2.0,
+                "x {x}: {px} vs {}",
+                want_x(x)
+            );
+            assert!(
+                (py - want_y(y)).abs() <= 2.0,
+                "y {y}: {py} vs {}",
+                want_y(y)
+            );
+        }
+        assert_eq!(fill[0], fill[2]);
+        assert_ne!(fill[0], fill[3], "the second curve's colour");
+    }
+
+    /// One point is a plot (a range of zero width, padded); no plottable
+    /// point is an error, even with a floor to draw.
+    #[test]
+    fn one_point_plots_and_none_is_an_error() {
+        let one = [Curve {
+            name: "a".into(),
+            points: vec![(0.2, 3e-3)],
+        }];
+        let svg = plot(&one, Some((1e-3, "floor"))).unwrap();
+        assert_eq!(attributes(&svg, "circle", "cx").len(), 1);
+        let none = [Curve {
+            name: "a".into(),
+            points: vec![(0.0, 1e-2), (0.1, f64::INFINITY)],
+        }];
+        for floor in [None, Some((1e-3, "floor"))] {
+            let e = plot(&none, floor).unwrap_err().to_string();
+            assert!(e.contains("nothing to plot"), "{e}");
+        }
+    }
+}
