@@ -358,7 +358,11 @@ fn mitsuba_writes_the_scene_and_refuses_bad_input_naming_the_file() {
     ]);
     assert!(o.status.success(), "{}", text(&o.stderr));
     let xml = std::fs::read_to_string(out.join("scene.xml")).unwrap();
+    // Roulette starts where wavepath's does unless --rr-depth says
+    // otherwise (Mitsuba counts depth from 1).
+    let rr_depth = wavepath::integrator::ROULETTE_DEPTH + 1;
     for expected in [
+        &format!("name=\"rr_depth\" value=\"{rr_depth}\""),
         "name=\"max_depth\" value=\"4\"",
         "name=\"sample_count\" value=\"32\"",
         "name=\"width\" value=\"200\"",
@@ -458,42 +462,30 @@ fn compare_takes_a_positive_diff_scale_only() {
     render(&a, 16, 12, 2, 1);
     render(&b, 16, 12, 2, 2);
     let diff = dir.join("d.png");
-    let s = |p: &Path| p.to_str().unwrap().to_string();
-    for bad in ["0", "-1", "inf", "NaN"] {
-        let o = wavepath(&[
+    let compare = |scale: &str| {
+        let paths = [&a, &b, &diff].map(|p| p.to_str().unwrap().to_string());
+        wavepath(&[
             "compare",
-            &s(&a),
-            &s(&b),
+            &paths[0],
+            &paths[1],
             "--diff",
-            &s(&diff),
+            &paths[2],
             "--diff-scale",
-            bad,
-        ]);
+            scale,
+        ])
+    };
+    for bad in ["0", "-1", "inf", "NaN"] {
+        let o = compare(bad);
         let err = text(&o.stderr);
         assert_eq!(o.status.code(), Some(1), "{bad}: {err}");
-        assert!(
-            err.contains(&format!(
-                "--diff-scale must be a positive number, got {bad}"
-            )),
-            "{bad}: {err}"
-        );
+        let says = format!("--diff-scale must be a positive number, got {bad}");
+        assert!(err.contains(&says), "{bad}: {err}");
         assert!(!diff.exists(), "{bad}");
     }
-    let o = wavepath(&[
-        "compare",
-        &s(&a),
-        &s(&b),
-        "--diff",
-        &s(&diff),
-        "--diff-scale",
-        "0.5",
-    ]);
+    let o = compare("0.5");
     assert!(o.status.success(), "{}", text(&o.stderr));
-    assert!(
-        text(&o.stdout).contains("red >= 5.000e-1"),
-        "{}",
-        text(&o.stdout)
-    );
+    let out = text(&o.stdout);
+    assert!(out.contains("red >= 5.000e-1"), "{out}");
     assert!(diff.is_file());
 }
 
@@ -616,42 +608,35 @@ fn converge_refuses_bad_budgets_and_targets() {
     let dir = scratch("converge_flags");
     render(&dir.join("ref.exr"), 8, 6, 4, 0);
     let base = ["-q", "-r", "8", "6", "--ref", "ref.exr"];
-    for (flags, says) in [
-        (
-            &["--seconds", "0"][..],
-            "--seconds must be a positive number, got 0",
-        ),
-        (
-            &["--seconds", "inf"][..],
-            "--seconds must be a positive number, got inf",
-        ),
-        (
-            &["--seconds=-1"][..],
-            "--seconds must be a positive number, got -1",
-        ),
-        (
-            &["--targets", "1e-2,0"][..],
-            "--targets must be positive numbers, got 0",
-        ),
-        (
-            &["--targets", "inf"][..],
-            "--targets must be positive numbers, got inf",
-        ),
-        (
-            &["--targets=-1e-3"][..],
-            "--targets must be positive numbers, got -0.001",
-        ),
-        (
-            &["--make-reference", "--estimators", "hemisphere,light"][..],
-            "--make-reference renders one estimator",
-        ),
-    ] {
+    let refused = |flags: &[&str], says: &str| {
         let o = wavepath_in(&dir, &[&["converge"], &base[..], flags, &[SCENE]].concat());
         let err = text(&o.stderr);
         assert_eq!(o.status.code(), Some(1), "{flags:?}: {err}");
         assert!(err.contains(says), "{flags:?}: {err}");
         assert!(!dir.join("converge.csv").exists(), "{flags:?}");
+    };
+    // (flag, value given, value as the message shows it)
+    for (flag, value, shown) in [
+        ("--seconds", "0", "0"),
+        ("--seconds", "inf", "inf"),
+        ("--seconds", "-1", "-1"),
+        ("--targets", "1e-2,0", "0"),
+        ("--targets", "inf", "inf"),
+        ("--targets", "-1e-3", "-0.001"),
+    ] {
+        let rule = match flag {
+            "--seconds" => "must be a positive number",
+            _ => "must be positive numbers",
+        };
+        refused(
+            &[&format!("{flag}={value}")],
+            &format!("{flag} {rule}, got {shown}"),
+        );
     }
+    refused(
+        &["--make-reference", "--estimators", "hemisphere,light"],
+        "--make-reference renders one estimator",
+    );
 }
 
 /// Budgets double from 1 to `--max-spp` (256 by default); `--seconds`
@@ -795,32 +780,25 @@ fn converge_reports_each_estimator_against_the_references_noise() {
             .copied()
             .expect(&out)
     };
+    // (estimator, target, from CPU time, which figure, reached)
+    let noise = "less the reference's noise";
+    let mut want = vec![
+        ("hemisphere", 0, false, "measured", false),
+        ("light", 0, false, "measured", true),
+        ("light", 1, false, "measured", false),
+    ];
     for cpu in [false, true] {
-        assert!(
-            line("hemisphere", 0, cpu).ends_with("not reached (less the reference's noise)"),
-            "{out}"
-        );
-        assert!(
-            !line("light", 0, cpu).ends_with("not reached (less the reference's noise)"),
-            "{out}"
-        );
-        assert!(
-            !line("light", 1, cpu).ends_with("not reached (less the reference's noise)"),
-            "{out}"
-        );
+        want.extend([
+            ("hemisphere", 0, cpu, noise, false),
+            ("light", 0, cpu, noise, true),
+            ("light", 1, cpu, noise, true),
+        ]);
     }
-    assert!(
-        line("hemisphere", 0, false).contains("not reached (measured)"),
-        "{out}"
-    );
-    assert!(
-        !line("light", 0, false).contains("not reached (measured)"),
-        "{out}"
-    );
-    assert!(
-        line("light", 1, false).contains("not reached (measured)"),
-        "{out}"
-    );
+    for (estimator, k, cpu, figure, reached) in want {
+        let l = line(estimator, k, cpu);
+        let missed = l.contains(&format!("not reached ({figure})"));
+        assert_eq!(!missed, reached, "{l}\n{out}");
+    }
 
     // A reference without standard errors: warned about, no floor.
     render(&dir.join("plain.exr"), 24, 18, 16, 7);

@@ -502,7 +502,9 @@ mod tests {
             let doc = roxmltree::Document::parse(&xml).unwrap();
             let surfaces = bsdf::prepare(&scene.materials, &mut Vec::new());
             let tris = &scene.geometry.triangles;
-            let separation = separation(scene);
+            // 1e-5 of the scene's size, as the module documentation says.
+            let separation = 1e-5 * scene.geometry.bounds().diagonal().length();
+            assert!(separation > 0.0);
             let mut faces = 0;
             let mut backs = 0;
             for shape in doc
@@ -552,8 +554,11 @@ mod tests {
                             let moved = if one_sided { 0.0 } else { 0.5 * separation };
                             for (j, &i) in f.iter().enumerate() {
                                 let original = corners[if back { 2 - j } else { j }];
-                                let d = (ply.vertices[i].0 - original).length();
+                                let (p, n) = ply.vertices[i];
+                                let d = (p - original).length();
                                 assert!((d - moved).abs() <= 1e-6 * (1.0 + moved), "{file}: {d}");
+                                // Each copy moves out along its own normal.
+                                assert!(moved == 0.0 || (p - original).dot(n) > 0.0, "{file}");
                             }
                         }
                         if one_sided {
@@ -576,6 +581,48 @@ mod tests {
             assert_eq!(backs > 0, k == 1, "only the glowing box has a flipped copy");
             std::fs::remove_dir_all(&dir).unwrap();
         }
+    }
+
+    /// Vertex normals are written as the scene has them, except that one
+    /// that vanishes is replaced by the face's normal, which is what
+    /// wavepath shades with there.
+    #[test]
+    fn vanished_vertex_normals_become_the_faces() {
+        let mut scene = cornell();
+        let tris = &mut scene.geometry.triangles;
+        let t = 0;
+        for i in tris.indices[t] {
+            tris.normals[i as usize] = Vec3::ZERO;
+        }
+        let m = tris.material[t];
+        // The first other triangle of that material with normals left.
+        let kept = (0..tris.len())
+            .filter(|&u| tris.material[u] == m)
+            .position(|u| {
+                tris.indices[u]
+                    .iter()
+                    .all(|&i| tris.normals[i as usize] != Vec3::ZERO)
+            })
+            .unwrap();
+        let (dir, _, _) = export(&scene, "normals");
+        let ply = read_ply(&dir.join(format!("meshes/material{m}.ply")));
+        let tris = &scene.geometry.triangles;
+        let face = tris.geometric_normal(t).normalize();
+        for &i in &ply.faces[0] {
+            assert!(
+                (ply.vertices[i].1 - face).length() < 1e-6,
+                "{}",
+                ply.vertices[i].1
+            );
+        }
+        let u = (0..tris.len())
+            .filter(|&u| tris.material[u] == m)
+            .nth(kept)
+            .unwrap();
+        for (&i, &index) in ply.faces[kept].iter().zip(&tris.indices[u]) {
+            assert_eq!(ply.vertices[i].1, tris.normals[index as usize]);
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// The camera of the XML, read the way Mitsuba's `perspective` sensor
@@ -647,6 +694,21 @@ mod tests {
             };
             assert!(pixels.iter().all(|&p| p == want), "row {row}");
         }
+        std::fs::remove_dir_all(&dir).unwrap();
+
+        // Two skies: two maps, each its own file.
+        let mut two_skies = sky_only.clone();
+        two_skies.lights.push(Light::Hemisphere { radiance });
+        let (dir, xml, _) = export(&two_skies, "two_skies");
+        let doc = roxmltree::Document::parse(&xml).unwrap();
+        let files: Vec<&str> = doc
+            .descendants()
+            .filter(|n| n.attribute("type") == Some("envmap"))
+            .map(|n| value(n, "string", "filename"))
+            .collect();
+        assert_eq!(files.len(), 2);
+        assert_ne!(files[0], files[1]);
+        assert!(files.iter().all(|f| dir.join(f).is_file()), "{files:?}");
         std::fs::remove_dir_all(&dir).unwrap();
 
         let mut sky_and_light = cornell();
