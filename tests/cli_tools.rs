@@ -622,16 +622,14 @@ fn converge_refuses_bad_budgets_and_targets() {
         ("--seconds", "-1", "-1"),
         ("--targets", "1e-2,0", "0"),
         ("--targets", "inf", "inf"),
-        ("--targets", "-1e-3", "-0.001"),
+        ("--targets", "-0.001", "-0.001"),
     ] {
         let rule = match flag {
             "--seconds" => "must be a positive number",
             _ => "must be positive numbers",
         };
-        refused(
-            &[&format!("{flag}={value}")],
-            &format!("{flag} {rule}, got {shown}"),
-        );
+        // As two arguments: a negative value is a value, not a flag.
+        refused(&[flag, value], &format!("{flag} {rule}, got {shown}"));
     }
     refused(
         &["--make-reference", "--estimators", "hemisphere,light"],

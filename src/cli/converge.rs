@@ -113,7 +113,7 @@ pub struct ConvergeArgs {
 
     /// Stop doubling once a render takes at least this long (seconds);
     /// --max-spp still caps the budget when given
-    #[arg(long = "seconds", value_name = "S")]
+    #[arg(long = "seconds", value_name = "S", allow_negative_numbers = true)]
     pub seconds: Option<f64>,
 
     /// Estimators to compare, comma-separated [default: the one -H selects]
@@ -121,7 +121,12 @@ pub struct ConvergeArgs {
     pub estimators: Vec<Estimator>,
 
     /// relMSE targets to report the time to reach, comma-separated
-    #[arg(long = "targets", value_delimiter = ',', default_value = "1e-2,1e-3")]
+    #[arg(
+        long = "targets",
+        value_delimiter = ',',
+        default_value = "1e-2,1e-3",
+        allow_negative_numbers = true
+    )]
     pub targets: Vec<f64>,
 
     /// CSV output: estimator, spp, seconds, relMSE, RMSE, relMSE less the
