@@ -225,39 +225,21 @@ fn nonsense_values_are_refused_with_a_usage_hint() {
     // Values of the right type that break a rule of their flag: the
     // message names the flag and the value (not clap's "unexpected
     // argument '-1'", which a negative number would otherwise get).
-    for (args, says) in [
-        (
-            ["-b", "-1"],
-            "-b: lens radius must be a non-negative number, got -1",
-        ),
-        (
-            ["-b", "inf"],
-            "-b: lens radius must be a non-negative number, got inf",
-        ),
-        (
-            ["-b", "NaN"],
-            "-b: lens radius must be a non-negative number, got NaN",
-        ),
-        (
-            ["-d", "0"],
-            "-d: focal distance must be a positive number, got 0",
-        ),
-        (
-            ["-d", "-2"],
-            "-d: focal distance must be a positive number, got -2",
-        ),
-        (
-            ["-d", "inf"],
-            "-d: focal distance must be a positive number, got inf",
-        ),
+    let lens = "-b: lens radius must be a non-negative number";
+    let focus = "-d: focal distance must be a positive number";
+    for (flag, value, rule) in [
+        ("-b", "-1", lens),
+        ("-b", "inf", lens),
+        ("-b", "NaN", lens),
+        ("-d", "0", focus),
+        ("-d", "-2", focus),
+        ("-d", "inf", focus),
     ] {
-        let o = wavepath(&[args[0], args[1], scene]);
+        let o = wavepath(&[flag, value, scene]);
         let err = stderr(&o);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-        assert!(
-            err.starts_with(&format!("error: {says}")),
-            "{args:?}: {err}"
-        );
+        assert_eq!(o.status.code(), Some(2), "{flag} {value}: {err}");
+        let says = format!("error: {rule}, got {value}");
+        assert!(err.starts_with(&says), "{flag} {value}: {err}");
     }
 }
 

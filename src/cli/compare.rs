@@ -269,8 +269,7 @@ mod tests {
         let mut sorted = errors.clone();
         sorted.sort_by(f32::total_cmp);
 
-        let dir = std::env::temp_dir().join(format!("wavepath-diff-unit-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::cli::scratch_dir("diff-map");
         let path = dir.join("diff.png");
         let check = |scale: f32| {
             let png = image::open(&path).unwrap().to_rgb8();

@@ -398,9 +398,7 @@ mod tests {
     /// Exports `scene` into a fresh directory; returns it, the XML and the
     /// warnings.
     fn export(scene: &Scene, tag: &str) -> (PathBuf, String, Vec<String>) {
-        let dir =
-            std::env::temp_dir().join(format!("wavepath_mitsuba_{tag}_{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let dir = crate::cli::scratch_dir(&format!("mitsuba-{tag}"));
         let warnings = write(scene, &SETTINGS, &dir).unwrap();
         let xml = std::fs::read_to_string(dir.join("scene.xml")).unwrap();
         (dir, xml, warnings)

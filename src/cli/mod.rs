@@ -412,6 +412,17 @@ pub fn run() -> Result<i32> {
     Ok(0)
 }
 
+/// A fresh, empty folder for one unit test's files, named by the process
+/// and `tag` (a binary's tests run at once, so each uses its own tag); the
+/// test removes it when done.
+#[cfg(test)]
+pub(crate) fn scratch_dir(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wavepath-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -456,8 +467,7 @@ mod tests {
 
     #[test]
     fn camera_files_are_read_up_to_64_kib() {
-        let dir = std::env::temp_dir().join(format!("wavepath-cli-unit-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = scratch_dir("camera-file");
         let file = dir.join("camera.txt");
         std::fs::write(&file, " ".repeat(1 << 16)).unwrap();
         assert_eq!(read_camera_file(&file).unwrap().len(), 1 << 16);

@@ -122,7 +122,7 @@ pub fn error_vs_time(
 mod tests {
     use super::*;
 
-    /// The numbers of the attribute `name` in every `<tag …>` of `svg`.
+    /// The values of the attribute `name` in every `<tag …>` of `svg`.
     fn attributes(svg: &str, tag: &str, name: &str) -> Vec<String> {
         svg.split(&format!("<{tag} "))
             .skip(1)
@@ -136,14 +136,9 @@ mod tests {
 
     fn plot(curves: &[Curve], floor: Option<(f64, &str)>) -> Result<String> {
         // A folder per call: the tests run at once.
-        let dir = std::env::temp_dir().join(format!(
-            "wavepath-plot-unit-{}-{}-{:?}",
-            std::process::id(),
-            curves.len(),
-            floor.map(|f| f.0)
-        ));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join(format!("p{}.svg", curves.len()));
+        let dir =
+            crate::cli::scratch_dir(&format!("plot-{}-{:?}", curves.len(), floor.map(|f| f.0)));
+        let path = dir.join("plot.svg");
         let result = error_vs_time(&path, "t", "relMSE", curves, floor)
             .map(|_| std::fs::read_to_string(&path).unwrap());
         let _ = std::fs::remove_dir_all(&dir);
