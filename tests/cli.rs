@@ -214,6 +214,9 @@ fn nonsense_values_are_refused_with_a_usage_hint() {
         vec!["-r", "64", "48", "-r", "48", "48", scene],
         vec!["-a", "4", "0.1", "-a", "8", "0.1", scene],
         vec!["--roulette-depth", "-1", scene],
+        // Flags that contradict each other.
+        vec!["--no-adaptive", "-a", "8", "0.1", scene],
+        vec!["--no-roulette", "--roulette-depth", "2", scene],
     ] {
         let o = wavepath(&args);
         let err = stderr(&o);
@@ -240,6 +243,115 @@ fn nonsense_values_are_refused_with_a_usage_hint() {
         assert_eq!(o.status.code(), Some(2), "{flag} {value}: {err}");
         let says = format!("error: {rule}, got {value}");
         assert!(err.starts_with(&says), "{flag} {value}: {err}");
+    }
+}
+
+#[test]
+fn outputs_that_cannot_be_written_are_refused_before_rendering() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    // A folder where the image should go, for the image and for the rate
+    // image of an adaptive render.
+    let folder = scratch_path("taken.png");
+    std::fs::create_dir_all(&folder).unwrap();
+    let rate_folder = scratch_path("adaptive_rate.png");
+    std::fs::create_dir_all(&rate_folder).unwrap();
+    let adaptive = scratch("adaptive.png");
+    let mut cases = vec![
+        (
+            vec!["-f", folder.to_str().unwrap(), scene],
+            format!("-f {}: is a folder", folder.display()),
+        ),
+        (
+            vec!["-s", "64", "-f", adaptive.to_str().unwrap(), scene],
+            format!("the rate image {}: is a folder", rate_folder.display()),
+        ),
+    ];
+    // A file system that takes no new files (Linux's /proc).
+    if Path::new("/proc/self").is_dir() {
+        cases.push((
+            vec!["-f", "/proc/wavepath.png", scene],
+            "-f /proc/wavepath.png: cannot write there".into(),
+        ));
+    }
+    for (args, says) in cases {
+        let o = wavepath(&args);
+        let err = stderr(&o);
+        // Status 2 with a usage hint: the check before the render, not a
+        // failed write after it (status 1).
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.starts_with(&format!("error: {says}")),
+            "{args:?}: {err}"
+        );
+        assert!(err.contains("--help"), "{args:?}: {err}");
+    }
+    // Without the rate image, the adaptive render's name is fine.
+    let o = wavepath(&[
+        "-q",
+        "-r",
+        "8",
+        "6",
+        "-f",
+        adaptive.to_str().unwrap(),
+        scene,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    // The check leaves nothing behind: a new file it made is removed when
+    // a later step fails, and a file that exists keeps its bytes.
+    let fresh = scratch("probe-fresh.png");
+    let o = wavepath(&["-q", "-f", fresh.to_str().unwrap(), "no/such/scene.dae"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(!fresh.exists(), "the probe's file was left behind");
+    let kept = scratch("probe-kept.png");
+    std::fs::write(&kept, b"earlier render").unwrap();
+    let o = wavepath(&["-q", "-f", kept.to_str().unwrap(), "no/such/scene.dae"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&kept).unwrap(), b"earlier render");
+}
+
+/// Settings that leave light out of the image by construction, or a flag
+/// that does nothing for the output asked for, render as asked with a
+/// warning saying so.
+#[test]
+fn settings_that_leave_light_out_are_warned_about() {
+    let point_light = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/point_light.dae");
+    let cornell = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    let png = scratch("warned.png");
+    let exr = scratch("warned.exr");
+    let (png, exr) = (png.to_str().unwrap(), exr.to_str().unwrap());
+    for (args, warning) in [
+        (
+            vec!["-H", "-f", png, point_light],
+            Some(
+                "-H: uniform hemisphere sampling never finds the scene's 1 point or directional light",
+            ),
+        ),
+        (vec!["-f", png, point_light], None),
+        // The Cornell box's light is an area light, which -H finds.
+        (vec!["-H", "-f", png, cornell], None),
+        (
+            vec!["--bounces", "indirect", "-m", "1", "-f", png, cornell],
+            Some("--bounces indirect keeps light that bounced twice or more, and -m 1"),
+        ),
+        (
+            vec!["--bounces", "indirect", "-m", "2", "-f", png, cornell],
+            None,
+        ),
+        (
+            vec!["--tonemap", "srgb", "-f", exr, cornell],
+            Some("--tonemap applies to PNG images"),
+        ),
+        (vec!["--tonemap", "srgb", "-f", png, cornell], None),
+    ] {
+        let all = [&["-q", "-r", "8", "6"][..], &args].concat();
+        let o = wavepath(&all);
+        let err = stderr(&o);
+        assert!(o.status.success(), "{all:?}: {err}");
+        match warning {
+            Some(w) => assert!(err.contains(&format!("warning: {w}")), "{all:?}: {err}"),
+            None => assert!(!err.contains("warning"), "{all:?}: {err}"),
+        }
     }
 }
 

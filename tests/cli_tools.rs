@@ -246,6 +246,87 @@ fn converge_makes_a_reference_with_its_noise_and_writes_csv_and_plot() {
     assert_refused(&o, "none.csv");
 }
 
+/// A reference records what decides its expected image (scene and camera
+/// files, -m, --bounces, the lens); measuring against one that shows
+/// another image is refused, while settings that change only the noise
+/// (estimator, -l, seed) may differ.
+#[test]
+fn converge_refuses_a_reference_of_another_image() {
+    let dir = scratch("converge_expectation");
+    let point_light = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/point_light.dae");
+    let scene = wavepath::scene::collada::load_file(Path::new(SCENE)).unwrap();
+    let camera = wavepath::scene::camera_file::write(&scene.camera, 8, 6);
+    std::fs::write(dir.join("view.txt"), camera).unwrap();
+    let make = [
+        "converge",
+        "-q",
+        "--make-reference",
+        "-s",
+        "4",
+        "-m",
+        "2",
+        "-r",
+        "8",
+        "6",
+    ];
+    let reference = dir.join("ref.exr");
+    let mut made = Vec::new();
+    for _ in 0..2 {
+        let o = wavepath_in(&dir, &[&make[..], &["--ref", "ref.exr", SCENE]].concat());
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        made.push(std::fs::read(&reference).unwrap());
+    }
+    assert!(made[0] == made[1], "the same reference, different bytes");
+
+    let measure = |flags: &[&str], scene: &str| {
+        let base = [
+            "converge",
+            "-q",
+            "-r",
+            "8",
+            "6",
+            "--max-spp",
+            "1",
+            "--ref",
+            "ref.exr",
+        ];
+        wavepath_in(&dir, &[&base[..], flags, &[scene]].concat())
+    };
+    for (flags, scene, says) in [
+        (&["-m", "3"][..], SCENE, "-m 2 where these renders use -m 3"),
+        (&["-m", "2"], point_light, "another scene file"),
+        (
+            &["-m", "2", "--bounces", "last"],
+            SCENE,
+            "--bounces accumulate where",
+        ),
+        (
+            &["-m", "2", "-b", "0.1"],
+            SCENE,
+            "-b 0 where these renders use -b 0.1",
+        ),
+        (
+            &["-m", "2", "-c", "view.txt"],
+            SCENE,
+            "another camera (-c file)",
+        ),
+    ] {
+        let o = measure(flags, scene);
+        assert_refused(&o, "ref.exr");
+        let err = text(&o.stderr);
+        assert!(
+            err.contains("shows another image") && err.contains(says),
+            "{flags:?}: {err}"
+        );
+        assert!(!dir.join("converge.csv").exists(), "{flags:?}");
+    }
+    let o = measure(
+        &["-m", "2", "-H", "-l", "3", "--seed", "7", "--no-roulette"],
+        SCENE,
+    );
+    assert!(o.status.success(), "{}", text(&o.stderr));
+}
+
 #[test]
 fn converge_refuses_bad_references_naming_the_file() {
     let dir = scratch("converge_bad");
@@ -506,7 +587,7 @@ fn compare_says_what_the_files_allow_and_no_more() {
     noisy.variance.fill(Vec3::splat(1e-4));
     noisy.samples.fill(16);
     write_exr(&plain, &dir.join("plain.exr"), false).unwrap();
-    write_exr_with_error(&noisy, &dir.join("noisy.exr")).unwrap();
+    write_exr_with_error(&noisy, &dir.join("noisy.exr"), &[]).unwrap();
     // wavepath writes non-finite pixels as 0, so this file is written
     // directly: two bad pixels in 8×4.
     exr::prelude::write_rgb_file(dir.join("broken.exr"), 8, 4, |x, y| match (x, y) {
@@ -635,6 +716,66 @@ fn converge_refuses_bad_budgets_and_targets() {
         &["--make-reference", "--estimators", "hemisphere,light"],
         "--make-reference renders one estimator",
     );
+    // Render flags that mean nothing here are refused, not ignored, and
+    // outputs that cannot be written are found before anything renders.
+    for (flags, says) in [
+        (&["-f", "x.png"][..], "converge: -f is not used"),
+        (&["-a", "8", "0.1"], "converge: -a is not used"),
+        (
+            &["-p", "0", "0", "4", "4"],
+            "-p: converge measures whole images",
+        ),
+        (&["--tonemap", "srgb"], "converge: --tonemap is not used"),
+        (&["--stats"], "converge: --stats is not used"),
+        (
+            &["--shading", "normals"],
+            "--shading normals: converge measures the light-transport estimators",
+        ),
+        (
+            &["--csv", "no/such/folder/c.csv"],
+            "--csv no/such/folder/c.csv: there is no folder no/such/folder",
+        ),
+    ] {
+        refused(flags, says);
+    }
+    std::fs::create_dir(dir.join("taken.svg")).unwrap();
+    refused(&["--plot", "taken.svg"], "--plot taken.svg: is a folder");
+    let o = wavepath_in(
+        &dir,
+        &[
+            "converge",
+            "--make-reference",
+            "-r",
+            "8",
+            "6",
+            "--ref",
+            "no/such/r.exr",
+            SCENE,
+        ],
+    );
+    assert_refused(&o, "--ref no/such/r.exr: there is no folder");
+
+    // The help lists what converge uses, with the reference's default spp.
+    let help = text(&wavepath(&["converge", "--help"]).stdout);
+    assert!(help.contains("[default: 1024]"), "{help}");
+    let options: Vec<&str> = help
+        .lines()
+        .map(str::trim_start)
+        .filter(|l| l.starts_with('-'))
+        .collect();
+    assert!(options.iter().any(|l| l.starts_with("-s, --spp")), "{help}");
+    for hidden in [
+        "-f, --output",
+        "-a, --adaptive",
+        "-p, --region",
+        "--tonemap",
+        "--stats",
+    ] {
+        assert!(
+            !options.iter().any(|l| l.starts_with(hidden)),
+            "{hidden} listed: {help}"
+        );
+    }
 }
 
 /// Budgets double from 1 to `--max-spp` (256 by default); `--seconds`

@@ -215,7 +215,7 @@ fn regenerate_references() {
             threads,
         );
         let path = reference_path(name);
-        output::write_exr_with_error(&image, &path).unwrap();
+        output::write_exr_with_error(&image, &path, &[]).unwrap();
         eprintln!(
             "wrote {}: {REFERENCE_SPP} spp, own relMSE ≈ {:.2e}, {} bytes",
             path.display(),

@@ -67,7 +67,7 @@ pub struct Args {
     /// when its 95% confidence interval is within TOLERANCE of its mean
     #[arg(short = 'a', long = "adaptive", num_args = 2, action = clap::ArgAction::Set,
           value_names = ["SAMPLES_PER_BATCH", "TOLERANCE"], default_values = ["32", "0.05"],
-          allow_negative_numbers = true)]
+          allow_negative_numbers = true, conflicts_with = "no_adaptive")]
     pub adaptive: Vec<String>,
 
     /// Take exactly --spp samples in every pixel (no adaptive sampling)
@@ -87,7 +87,8 @@ pub struct Args {
     pub no_roulette: bool,
 
     /// First path vertex (0 = the camera ray's hit) at which Russian roulette may end a path; 1 trades error for speed per sample
-    #[arg(long = "roulette-depth", value_name = "N", default_value_t = crate::integrator::ROULETTE_DEPTH)]
+    #[arg(long = "roulette-depth", value_name = "N", default_value_t = crate::integrator::ROULETTE_DEPTH,
+          conflicts_with = "no_roulette")]
     pub roulette_depth: u32,
 
     /// Camera settings file written by the CS184 viewer: its position, orientation, clip planes and vertical field of view replace the scene's camera (the lens stays with -b and -d)

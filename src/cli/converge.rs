@@ -19,14 +19,14 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::parser::ValueSource;
-use clap::{CommandFactory, FromArgMatches, Parser};
+use clap::{CommandFactory, FromArgMatches, Parser, ValueEnum};
 
 use super::Args;
 use super::plot::{self, Curve};
 use crate::bvh::Bvh;
 use crate::film::metrics;
 use crate::film::output::{self, Format};
-use crate::integrator::Settings;
+use crate::integrator::{Settings, View};
 use crate::wavefront::{RenderSettings, Renderer};
 
 /// References are rendered with `--seed` plus this, so that a reference
@@ -34,8 +34,9 @@ use crate::wavefront::{RenderSettings, Renderer};
 /// random numbers (correlated samples would make the error look smaller).
 pub const REFERENCE_SEED_OFFSET: u32 = 1_000_003;
 
-/// Reference samples per pixel when `-s` is not given.
-pub const DEFAULT_REFERENCE_SPP: u32 = 1024;
+/// Reference samples per pixel when `-s` is not given (`-s`'s default
+/// here, as clap takes it: text).
+pub const DEFAULT_REFERENCE_SPP: &str = "1024";
 
 /// A way of estimating the image. Each maps to integrator settings; a new
 /// estimator (BSDF sampling, MIS, …) is a new variant here and one arm in
@@ -84,8 +85,8 @@ impl Estimator {
         wavepath converge --make-reference -s 1024 -m 5 -r 480 360 --ref ref.exr scene.dae\n  \
         wavepath converge -m 5 -r 480 360 --ref ref.exr --estimators hemisphere,light \
         --max-spp 256 --csv conv.csv scene.dae\n\
-        The render flags are those of `wavepath --help`; -s is the reference's spp \
-        (default 1024), -f, -a and -s are not used otherwise."
+        The render flags are those of `wavepath --help`, but for -f, -a, -p, --tonemap \
+        and --stats; -s is the reference's spp and is not used otherwise."
 )]
 pub struct ConvergeArgs {
     #[command(flatten)]
@@ -139,6 +140,102 @@ pub struct ConvergeArgs {
     pub plot: Option<PathBuf>,
 }
 
+/// The text attribute of a reference EXR's header that records its
+/// [`expectation`], as `setting=value` pairs joined by `;` (one attribute,
+/// as the EXR writer orders several at random, and the same reference
+/// should be the same bytes).
+const EXPECTATION_NOTE: &str = "wavepath.expectation";
+
+/// What decides the expected value of a render's pixels, besides its size
+/// (checked on its own): the contents of the scene and camera files, the
+/// depth, which bounces count, and the lens. The estimator, seed, `-l` and
+/// roulette change only the noise, so a reference may differ in those.
+/// Each entry is (setting, value); `--make-reference` records them in the
+/// EXR ([`EXPECTATION_NOTE`]), and a reference that recorded other values
+/// is refused: error measured against another image means nothing.
+fn expectation(args: &Args, settings: &RenderSettings) -> Result<Vec<(&'static str, String)>> {
+    let scene = match &args.scene {
+        Some(path) => {
+            std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?
+        }
+        None => super::DEFAULT_SCENE.as_bytes().to_vec(),
+    };
+    let camera = match &args.camera {
+        Some(file) => format!("{:016x}", digest(super::read_camera_file(file)?.as_bytes())),
+        None => "none".into(),
+    };
+    let s = &settings.integrator;
+    let mut expected = vec![
+        ("scene", format!("{:016x}", digest(&scene))),
+        ("-c", camera),
+        ("-m", s.max_depth.to_string()),
+        ("--bounces", clap_name(&s.bounces)),
+        ("-b", settings.lens_radius.to_string()),
+    ];
+    // Without a lens every distance is in focus.
+    if settings.lens_radius > 0.0 {
+        expected.push(("-d", settings.focal_distance.to_string()));
+    }
+    Ok(expected)
+}
+
+/// A flag value's name as given on the command line.
+fn clap_name(value: &impl ValueEnum) -> String {
+    value
+        .to_possible_value()
+        .map_or_else(|| "?".into(), |v| v.get_name().to_string())
+}
+
+/// 64-bit FNV-1a: a file's fingerprint, to tell two versions apart.
+fn digest(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// Refuses a reference whose header records another [`expectation`] than
+/// `ours` (one that records none, from another program, is taken on trust).
+fn check_expectation(path: &Path, ours: &[(&str, String)]) -> Result<()> {
+    let notes = output::read_exr_notes(path)?;
+    let Some((_, recorded)) = notes.iter().find(|(name, _)| name == EXPECTATION_NOTE) else {
+        return Ok(());
+    };
+    let theirs: Vec<(&str, &str)> = recorded
+        .split(';')
+        .filter_map(|pair| pair.split_once('='))
+        .collect();
+    let differences: Vec<String> = ours
+        .iter()
+        .filter_map(|(name, value)| {
+            let (_, theirs) = theirs.iter().find(|(n, _)| n == name)?;
+            (theirs != value).then(|| match *name {
+                "scene" => "another scene file, or another version of it".to_string(),
+                "-c" => "another camera (-c file)".to_string(),
+                _ => format!("{name} {theirs} where these renders use {name} {value}"),
+            })
+        })
+        .collect();
+    if !differences.is_empty() {
+        bail!(
+            "{}: the reference shows another image than these renders ({}); make one for \
+             them with --make-reference",
+            path.display(),
+            differences.join("; ")
+        );
+    }
+    Ok(())
+}
+
+/// Warns of the light that `estimator` with `settings` can never find
+/// ([`Settings::blind_spots`]).
+fn warn_blind_spots(estimator: Estimator, settings: &Settings, lights: &[crate::scene::Light]) {
+    let mut s = *settings;
+    estimator.configure(&mut s);
+    for note in s.blind_spots(lights) {
+        eprintln!("warning: {} estimator: {note}", estimator.name());
+    }
+}
+
 /// CPU time (user + system) this process has used, in seconds, where the
 /// OS reports it (Linux `/proc/self/stat`, at its 100 Hz tick). On a
 /// machine shared with other work, CPU time / threads is what a render
@@ -186,14 +283,58 @@ pub fn time_to_reach(points: &[(f64, f64)], target: f64) -> Option<(f64, bool)> 
     Some(((t0.ln() + f * (t1.ln() - t0.ln())).exp(), false))
 }
 
+/// Render flags that mean nothing here (the id of each in [`Args`], and
+/// why): given, they are refused rather than ignored, and `--help` does
+/// not list them.
+const NOT_USED: [(&str, &str); 5] = [
+    (
+        "output",
+        "converge: -f is not used; name the reference with --ref, outputs with --csv and --plot",
+    ),
+    (
+        "adaptive",
+        "converge: -a is not used; every budget is a fixed number of samples per pixel",
+    ),
+    (
+        "region",
+        "-p: converge measures whole images and does not take a cell",
+    ),
+    (
+        "tonemap",
+        "converge: --tonemap is not used; it writes no PNG",
+    ),
+    (
+        "stats",
+        "converge: --stats is not used; see `wavepath --stats` for a render's statistics",
+    ),
+];
+
+/// The command line of `wavepath converge`: the render flags, less those
+/// in [`NOT_USED`], with `-s` as the reference's samples per pixel.
+fn command() -> clap::Command {
+    let mut command = ConvergeArgs::command().mut_arg("spp", |a| {
+        a.default_value(DEFAULT_REFERENCE_SPP)
+            .help("Samples per pixel of the reference (--make-reference)")
+    });
+    for (id, _) in NOT_USED {
+        command = command.mut_arg(id, |a| a.hide(true));
+    }
+    command
+}
+
 /// Runs `wavepath converge`; `argv` starts with the subcommand's name.
 pub fn run(argv: Vec<OsString>) -> Result<i32> {
-    let matches = ConvergeArgs::command().get_matches_from(argv);
+    let matches = command().get_matches_from(argv);
     let args = ConvergeArgs::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let from_command_line = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
-    if from_command_line("output") {
+    if let Some((_, why)) = NOT_USED.iter().find(|(id, _)| from_command_line(id)) {
+        bail!("{why}");
+    }
+    if args.render.shading != View::Path {
         bail!(
-            "converge: -f is not used; name the reference with --ref, outputs with --csv and --plot"
+            "--shading {}: converge measures the light-transport estimators (--shading path) \
+             against a path-traced reference",
+            clap_name(&args.render.shading)
         );
     }
     if let Some(plot) = &args.plot
@@ -228,10 +369,19 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     }
 
     let (mut settings, _) = super::validate(&args.render);
-    if settings.region.is_some() {
-        bail!("-p: converge measures whole images and does not take a cell");
-    }
     settings.adaptive = None;
+    let plot_path = args
+        .plot
+        .clone()
+        .unwrap_or_else(|| args.csv.with_extension("svg"));
+    let outputs = if args.make_reference {
+        vec![("--ref", &reference_path)]
+    } else {
+        vec![("--csv", &args.csv), ("--plot", &plot_path)]
+    };
+    for (flag, path) in outputs {
+        super::check_writable(flag, path).map_err(anyhow::Error::msg)?;
+    }
     let chatty = !args.render.quiet;
 
     let (pool, threads) = super::thread_pool(&args.render)?;
@@ -245,6 +395,10 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     for w in &renderer.warnings {
         eprintln!("warning: {w}");
     }
+
+    // Of the scene as loaded, and of the settings before an estimator
+    // changes them (which leaves the expected image as it is).
+    let expected = expectation(&args.render, &settings)?;
 
     let cancel = super::cancel_on_ctrl_c();
     let render = |s: &RenderSettings| {
@@ -263,11 +417,9 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         if let Some(e) = args.estimators.first() {
             e.configure(&mut settings.integrator);
         }
-        settings.spp = if from_command_line("spp") {
-            args.render.spp
-        } else {
-            DEFAULT_REFERENCE_SPP
-        };
+        let estimator = Estimator::from_settings(&settings.integrator);
+        warn_blind_spots(estimator, &settings.integrator, &scene.lights);
+        settings.spp = args.render.spp;
         settings.seed = settings.seed.wrapping_add(REFERENCE_SEED_OFFSET);
         if chatty {
             eprintln!(
@@ -276,7 +428,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
                 settings.height,
                 settings.spp,
                 settings.integrator.max_depth,
-                Estimator::from_settings(&settings.integrator).name()
+                estimator.name()
             );
         }
         let (out, secs, _) = render(&settings);
@@ -284,7 +436,9 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
             eprintln!("interrupted: no reference written");
             return Ok(super::EXIT_INTERRUPTED);
         }
-        output::write_exr_with_error(&out.image, &reference_path)?;
+        let pairs: Vec<String> = expected.iter().map(|(n, v)| format!("{n}={v}")).collect();
+        let note = (EXPECTATION_NOTE.to_string(), pairs.join(";"));
+        output::write_exr_with_error(&out.image, &reference_path, &[note])?;
         say!(
             "wrote {} ({} spp in {secs:.1} s); its own relMSE, estimated from its variance: {:.3e}",
             reference_path.display(),
@@ -308,6 +462,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
             reference.height
         );
     }
+    check_expectation(&reference_path, &expected)?;
     let bad = reference.non_finite_count();
     if bad > 0 {
         bail!(
@@ -333,6 +488,9 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     } else {
         args.estimators.clone()
     };
+    for &estimator in &estimators {
+        warn_blind_spots(estimator, &settings.integrator, &scene.lights);
+    }
     // With --seconds and no explicit --max-spp, time alone stops the doubling.
     let max_spp = if args.seconds.is_some() && !from_command_line("max_spp") {
         u32::MAX / 2
@@ -430,10 +588,6 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         })
         .filter(|c| !c.points.is_empty())
         .collect();
-    let plot_path = args
-        .plot
-        .clone()
-        .unwrap_or_else(|| args.csv.with_extension("svg"));
     if !curves.is_empty() {
         let title = format!(
             "{} {}x{} -m {}: relMSE vs time, {threads} threads",

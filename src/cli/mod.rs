@@ -128,20 +128,13 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
             .unwrap_or("out");
         PathBuf::from(format!("{stem}.png"))
     });
-    if let Err(e) = output::Format::from_path(&output) {
-        fail(e.to_string());
-    }
-    // Found out now rather than after the render.
-    let folder = output
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(std::path::Path::new("."));
-    if !folder.is_dir() {
-        fail(format!(
-            "-f {}: there is no folder {}",
-            output.display(),
-            folder.display()
-        ));
+    match output::Format::from_path(&output) {
+        Err(e) => fail(e.to_string()),
+        Ok(output::Format::Exr) if args.tonemap != output::ToneCurve::Reference => eprintln!(
+            "warning: --tonemap applies to PNG images; {} holds linear radiance",
+            output.display()
+        ),
+        Ok(_) => {}
     }
     let settings = RenderSettings {
         width: args.resolution[0],
@@ -166,6 +159,40 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
         region,
     };
     (settings, output)
+}
+
+/// Refuses an output file that cannot be written, so that it is found out
+/// before the render rather than after: a missing folder, a folder in its
+/// place, or a place that may not be written (permissions, a read-only
+/// mount, a pseudo file system such as /proc). A file that exists is
+/// opened for writing without being truncated; one that does not is
+/// created and removed again, the only sure test of all of these.
+pub(crate) fn check_writable(
+    flag: &str,
+    path: &std::path::Path,
+) -> std::result::Result<(), String> {
+    let folder = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    let at = || format!("{flag} {}", path.display());
+    if !folder.is_dir() {
+        return Err(format!("{}: there is no folder {}", at(), folder.display()));
+    }
+    if path.is_dir() {
+        return Err(format!("{}: is a folder, not a file", at()));
+    }
+    let mut open = std::fs::OpenOptions::new();
+    open.write(true);
+    let probe = if path.exists() {
+        open.open(path).map(drop)
+    } else {
+        open.create_new(true).open(path).and_then(|file| {
+            drop(file);
+            std::fs::remove_file(path)
+        })
+    };
+    probe.map_err(|e| format!("{}: cannot write there: {e}", at()))
 }
 
 /// `-p X Y DX DY` as the reference reads it: the cell of columns X..X+DX
@@ -312,6 +339,15 @@ pub fn run() -> Result<i32> {
     }
     let args = Args::parse_from(argv);
     let (settings, output_path) = validate(&args);
+    let mut outputs = vec![("-f", output_path.clone())];
+    if settings.adaptive.is_some() {
+        outputs.push(("the rate image", output::rate_path(&output_path)));
+    }
+    for (what, path) in &outputs {
+        if let Err(e) = check_writable(what, path) {
+            usage_error::<Args>(e);
+        }
+    }
     let chatty = !args.quiet;
 
     let (pool, threads) = thread_pool(&args)?;
@@ -332,6 +368,9 @@ pub fn run() -> Result<i32> {
     if settings.integrator.view == View::Path {
         for w in &renderer.warnings {
             eprintln!("warning: {w}");
+        }
+        for note in settings.integrator.blind_spots(&scene.lights) {
+            eprintln!("warning: {note}");
         }
         if renderer.lights.is_empty() && settings.integrator.max_depth > 0 {
             let why = if scene.lights.is_empty() {

@@ -113,7 +113,7 @@ pub fn write_png(image: &Image, path: &Path, curve: ToneCurve) -> Result<()> {
 }
 
 pub fn write_exr(image: &Image, path: &Path, with_rate: bool) -> Result<()> {
-    write_exr_channels(image, path, with_rate, false)
+    write_exr_channels(image, path, with_rate, false, &[])
 }
 
 /// Names of the EXR channels holding each pixel's standard error (the
@@ -124,11 +124,40 @@ pub const STDERR_CHANNELS: [&str; 3] = ["stderr.R", "stderr.G", "stderr.B"];
 /// more channels ([`STDERR_CHANNELS`]) and the sample counts as `samples`,
 /// so the file carries its own noise estimate (references for tests and
 /// `wavepath converge`). [`read_image`] reads them back into `variance`.
-pub fn write_exr_with_error(image: &Image, path: &Path) -> Result<()> {
-    write_exr_channels(image, path, true, true)
+/// `notes` become text attributes of the file's header (names and values
+/// in ASCII), read back by [`read_exr_notes`].
+pub fn write_exr_with_error(image: &Image, path: &Path, notes: &[(String, String)]) -> Result<()> {
+    write_exr_channels(image, path, true, true, notes)
 }
 
-fn write_exr_channels(image: &Image, path: &Path, with_rate: bool, with_error: bool) -> Result<()> {
+/// The text attributes of an EXR's first header, as (name, value).
+pub fn read_exr_notes(path: &Path) -> Result<Vec<(String, String)>> {
+    use exr::meta::attribute::AttributeValue;
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| anyhow::anyhow!("{}: cannot read EXR: {e}", path.display()))?;
+    let Some(header) = meta.headers.first() else {
+        return Ok(Vec::new());
+    };
+    let mut notes: Vec<(String, String)> = header
+        .own_attributes
+        .other
+        .iter()
+        .filter_map(|(name, value)| match value {
+            AttributeValue::Text(text) => Some((name.to_string(), text.to_string())),
+            _ => None,
+        })
+        .collect();
+    notes.sort();
+    Ok(notes)
+}
+
+fn write_exr_channels(
+    image: &Image,
+    path: &Path,
+    with_rate: bool,
+    with_error: bool,
+    notes: &[(String, String)],
+) -> Result<()> {
     use exr::prelude::*;
     let size = (image.width as usize, image.height as usize);
     // Non-finite radiance never reaches a file: it is written as 0.
@@ -160,9 +189,20 @@ fn write_exr_channels(image: &Image, path: &Path, with_rate: bool, with_error: b
             channels.push(AnyChannel::new(*name, FlatSamples::F32(se)));
         }
     }
+    let mut attributes = LayerAttributes::default();
+    for (name, value) in notes {
+        let text = |t: &str| {
+            Text::new_or_none(t).with_context(|| {
+                format!("{}: EXR attribute '{t}' is not ASCII text", path.display())
+            })
+        };
+        attributes
+            .other
+            .insert(text(name)?, AttributeValue::Text(text(value)?));
+    }
     let layer = Layer::new(
         size,
-        LayerAttributes::default(),
+        attributes,
         // Blocks in increasing order: with the default (unspecified) order,
         // parallel compression writes them as they finish, so the same
         // image gave different files.

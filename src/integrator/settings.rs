@@ -1,5 +1,7 @@
 //! Which estimator a render runs.
 
+use crate::scene::Light;
+
 /// What the image shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum View {
@@ -78,5 +80,112 @@ impl Settings {
                 Bounces::Last => k == self.max_depth,
                 Bounces::Indirect => k >= 2,
             }
+    }
+
+    /// What these settings leave out of the image by construction, for a
+    /// warning: light the estimator as asked can never find, which a user
+    /// would otherwise take for a bug.
+    pub fn blind_spots(&self, lights: &[Light]) -> Vec<String> {
+        let mut notes = Vec::new();
+        if self.view != View::Path {
+            return notes;
+        }
+        if self.bounces == Bounces::Indirect && self.max_depth < 2 {
+            notes.push(format!(
+                "--bounces indirect keeps light that bounced twice or more, and -m {} \
+                 stops before that: the image is black",
+                self.max_depth
+            ));
+        }
+        // A point or directional light is reached along one direction only,
+        // which a direction drawn from the hemisphere hits with probability 0.
+        let delta = lights
+            .iter()
+            .filter(|l| l.emits() && matches!(l, Light::Point { .. } | Light::Directional { .. }))
+            .count();
+        if self.hemisphere && self.max_depth > 0 && delta > 0 {
+            notes.push(format!(
+                "-H: uniform hemisphere sampling never finds the scene's {delta} point or \
+                 directional light{}, so {} light is missing from the image (light sampling, \
+                 without -H, finds {})",
+                if delta == 1 { "" } else { "s" },
+                if delta == 1 { "its" } else { "their" },
+                if delta == 1 { "it" } else { "them" },
+            ));
+        }
+        notes
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn blind_spots_name_what_cannot_reach_the_image() {
+        // A point light, a sun, a point light that emits nothing, a sky.
+        let lights = [
+            Light::Point {
+                position: Vec3::Y,
+                intensity: Vec3::ONE,
+            },
+            Light::Directional {
+                to_light: Vec3::Y,
+                radiance: Vec3::ONE,
+            },
+            Light::Point {
+                position: Vec3::Y,
+                intensity: Vec3::ZERO,
+            },
+            Light::Hemisphere {
+                radiance: Vec3::ONE,
+            },
+        ];
+        let hemisphere = Settings {
+            hemisphere: true,
+            ..Settings::default()
+        };
+        let notes = hemisphere.blind_spots(&lights);
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(
+            notes[0].starts_with("-H: uniform hemisphere sampling never finds the scene's 2 point or directional lights, so their light"),
+            "{notes:?}"
+        );
+        let one = hemisphere.blind_spots(&lights[..1]);
+        assert!(
+            one[0].contains("1 point or directional light, so its light"),
+            "{one:?}"
+        );
+        // The sky and a light that emits nothing are no loss; light
+        // sampling, emission only and the other views lose nothing.
+        assert!(hemisphere.blind_spots(&lights[2..]).is_empty());
+        for settings in [
+            Settings::default(),
+            Settings {
+                max_depth: 0,
+                ..hemisphere
+            },
+            Settings {
+                view: View::Normals,
+                ..hemisphere
+            },
+        ] {
+            assert!(settings.blind_spots(&lights).is_empty(), "{settings:?}");
+        }
+
+        for (m, black) in [(0, true), (1, true), (2, false)] {
+            let indirect = Settings {
+                bounces: Bounces::Indirect,
+                max_depth: m,
+                ..Settings::default()
+            };
+            let notes = indirect.blind_spots(&lights[3..]);
+            assert_eq!(
+                notes.iter().any(|n| n.contains("image is black")),
+                black,
+                "-m {m}: {notes:?}"
+            );
+        }
     }
 }

@@ -138,6 +138,25 @@ pub fn parse(text: &str) -> Result<CameraFile, String> {
             ));
         }
     }
+    // Unit columns are a rotation only if they are also orthogonal and
+    // right-handed (screen x × screen y = toward the eye): otherwise the
+    // image would be sheared or mirrored.
+    for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+        let cos = columns[i].dot(columns[j]);
+        if cos.abs() > 1e-3 {
+            return Err(format!(
+                "camera-to-world columns {i} {} and {j} {} are not orthogonal \
+                 (cosine {cos}): not a rotation",
+                columns[i], columns[j]
+            ));
+        }
+    }
+    let det = columns[0].cross(columns[1]).dot(columns[2]);
+    if det < 0.0 {
+        return Err(format!(
+            "camera-to-world matrix has determinant {det}: a mirror image, not a rotation"
+        ));
+    }
     let tan_half = |degrees: f32| (0.5 * (degrees as f64).to_radians()).tan();
     Ok(CameraFile {
         camera: Camera {
@@ -243,11 +262,15 @@ mod tests {
     fn bad_files_name_the_value_at_fault() {
         let good = write(&camera(), 800, 600);
         let words: Vec<&str> = good.split_whitespace().collect();
-        let with = |i: usize, w: &str| {
+        let with_all = |changes: &[(usize, &str)]| {
             let mut v = words.clone();
-            v[i] = w;
+            for &(i, w) in changes {
+                v[i] = w;
+            }
             v.join(" ")
         };
+        let with = |i: usize, w: &str| with_all(&[(i, w)]);
+        let negate = |w: &str| format!("{}", -w.parse::<f32>().unwrap());
         let cases = [
             (words[..27].join(" "), "found 27"),
             (format!("{good} 1"), "found 29"),
@@ -256,6 +279,20 @@ mod tests {
             (with(27, "0"), "screen distance 0"),
             (with(4, "0.05"), "clip planes"),
             (with(16, "3"), "not a rotation"),
+            // Column 1 made equal to column 0 (both unit length).
+            (
+                with_all(&[(17, words[16]), (20, words[19]), (23, words[22])]),
+                "columns 0",
+            ),
+            // Column 2 negated: unit, orthogonal, mirrored.
+            (
+                with_all(&[
+                    (18, &negate(words[18])),
+                    (21, &negate(words[21])),
+                    (24, &negate(words[24])),
+                ]),
+                "a mirror image",
+            ),
             (with(1, "180"), "vfov 180"),
         ];
         for (text, says) in cases {
