@@ -231,6 +231,36 @@ fn truncated_files_name_the_element_they_end_inside() {
         );
         assert!(e.message.contains(&want), "{cut:?}: {e}\n(lacks {want:?})");
     }
+    // Cut inside a comment, CDATA section, processing instruction or
+    // entity: the parser's own complaint, then the same hint.
+    let cut = r##"<instance_effect url="#fx"/>"##;
+    let at = BASE.find(cut).unwrap() + cut.len();
+    for (tail, parser_says) in [
+        ("<!-- a note", "expected '-->'"),
+        ("<![CDATA[ 1 2", "expected ']]>'"),
+        ("<?editor x", "expected '?>'"),
+        ("&am", "entity"),
+    ] {
+        let text = format!("{}\n{tail}", &BASE[..at]);
+        let e = load_err(&text);
+        let last_line = text.lines().count() as u32;
+        assert_eq!(e.line, Some(last_line), "{tail:?}: {e}");
+        assert_eq!(e.element.as_deref(), Some("material"), "{tail:?}: {e}");
+        assert!(e.message.contains(parser_says), "{tail:?}: {e}");
+        assert!(
+            e.message.ends_with(&format!(
+                "the file ends inside <material> (opened on line {}); is it truncated?",
+                line_of(BASE, r#"<material id="mat""#)
+            )),
+            "{tail:?}: {e}"
+        );
+    }
+    // The same faults with the file going on are not called truncation.
+    for tail in ["<!-- a note", "&am"] {
+        let text = format!("{}\n{tail}\n{}", &BASE[..at], &BASE[at..]);
+        let e = load_err(&text);
+        assert!(!e.message.contains("truncated"), "{tail:?}: {e}");
+    }
     // Cut inside the root's own start tag: nothing was opened yet.
     let cut = "COLLADASchema";
     let text = &BASE[..BASE.find(cut).unwrap() + cut.len()];

@@ -133,8 +133,7 @@ pub fn write_exr_with_error(image: &Image, path: &Path, notes: &[(String, String
 /// The text attributes of an EXR's first header, as (name, value).
 pub fn read_exr_notes(path: &Path) -> Result<Vec<(String, String)>> {
     use exr::meta::attribute::AttributeValue;
-    let meta = exr::meta::MetaData::read_from_file(path, false)
-        .map_err(|e| anyhow::anyhow!("{}: cannot read EXR: {e}", path.display()))?;
+    let meta = read_exr_header(path)?;
     let Some(header) = meta.headers.first() else {
         return Ok(Vec::new());
     };
@@ -280,14 +279,34 @@ pub fn read_image_with(path: &Path, curve: ToneCurve) -> Result<Image> {
     }
 }
 
+fn cannot_read_exr(path: &Path, e: exr::error::Error) -> anyhow::Error {
+    anyhow::anyhow!("{}: cannot read EXR: {e}", path.display())
+}
+
+/// An EXR's headers. A file that does not start with the EXR magic number
+/// is called what it is, rather than given the decoder's view of its bytes.
+fn read_exr_header(path: &Path) -> Result<exr::meta::MetaData> {
+    use std::io::Read;
+    const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+    let mut start = Vec::with_capacity(4);
+    std::fs::File::open(path)
+        .and_then(|f| f.take(4).read_to_end(&mut start))
+        .with_context(|| format!("{}: cannot read EXR", path.display()))?;
+    if start != MAGIC {
+        bail!(
+            "{}: not an OpenEXR file (it does not start with the EXR magic number)",
+            path.display()
+        );
+    }
+    exr::meta::MetaData::read_from_file(path, false).map_err(|e| cannot_read_exr(path, e))
+}
+
 /// Reads the first layer of an EXR: R, G, B (or Y for grey) are required.
 fn read_exr(path: &Path) -> Result<Image> {
     use exr::prelude::read_first_flat_layer_from_file;
-    let cannot_read =
-        |e: exr::error::Error| anyhow::anyhow!("{}: cannot read EXR: {e}", path.display());
     // The header first: a few hundred bytes can claim 1e10 pixels, which
     // the decoder would try to allocate before finding the data missing.
-    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(cannot_read)?;
+    let meta = read_exr_header(path)?;
     for header in &meta.headers {
         let size = header.layer_size;
         if size.0 as u64 * size.1 as u64 > super::MAX_PIXELS {
@@ -300,7 +319,7 @@ fn read_exr(path: &Path) -> Result<Image> {
             );
         }
     }
-    let decoded = read_first_flat_layer_from_file(path).map_err(cannot_read)?;
+    let decoded = read_first_flat_layer_from_file(path).map_err(|e| cannot_read_exr(path, e))?;
     let layer = decoded.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());
     let find = |name: &str| -> Option<Vec<f32>> {

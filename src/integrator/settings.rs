@@ -7,7 +7,7 @@ use crate::scene::Light;
 pub enum View {
     /// Light transport, per `max_depth`, `hemisphere` and `bounces`.
     Path,
-    /// Shading normal mapped to colour: (n + 1) / 2.
+    /// Shading normal mapped to colour: (n + 1) / 2, as radiance (a PNG goes through --tonemap, as in the CS184 renderer; an EXR holds it as is).
     Normals,
     /// Heat map of BVH traversal steps (nodes visited + primitives tested) per pixel.
     BvhCost,

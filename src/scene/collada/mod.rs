@@ -139,27 +139,39 @@ fn xml_error(text: &str, path: &Path, e: roxmltree::Error) -> LoadError {
         line: Some(e.pos().row),
         ..LoadError::file(path, format!("not well-formed XML: {what}"))
     };
-    match &e {
-        // Name the element whose end tag is missing or misspelt.
-        roxmltree::Error::UnexpectedCloseTag(expected, ..) => {
-            error.element = Some(expected.clone());
-        }
-        // These carry no position (roxmltree says 1:1): the file ends early,
-        // so point at its last line and the element it was cut off inside.
+    let last_line = line_at(text.trim_end().as_bytes());
+    // The file ends early: these errors carry no position (roxmltree says
+    // 1:1); others (a comment, CDATA section, processing instruction or
+    // entity left open) are reported on the last line of a file whose
+    // text does not end a tag.
+    let (ends_early, detail) = match &e {
         roxmltree::Error::UnclosedRootNode | roxmltree::Error::UnexpectedEndOfStream => {
-            error.line = Some(line_at(text.trim_end().as_bytes()));
-            error.message = match xml::innermost_open_element(text) {
-                Some((name, start)) => {
-                    error.element = Some(name.to_string());
-                    format!(
-                        "not well-formed XML: the file ends inside <{name}> (opened on line {}); is it truncated?",
-                        line_at(&text.as_bytes()[..start])
-                    )
-                }
-                None => "not well-formed XML: the file ends before the root element is closed; is it truncated?".to_string(),
-            };
+            (true, String::new())
         }
-        _ => {}
+        _ => (
+            e.pos().row >= last_line && !text.trim_end().ends_with('>'),
+            format!("{what}; "),
+        ),
+    };
+    if let roxmltree::Error::UnexpectedCloseTag(expected, ..) = &e {
+        // Name the element whose end tag is missing or misspelt.
+        error.element = Some(expected.clone());
+    }
+    if ends_early {
+        // Point at the last line and the element the file was cut off inside.
+        error.line = Some(last_line);
+        error.message = match xml::innermost_open_element(text) {
+            Some((name, start)) => {
+                error.element = Some(name.to_string());
+                format!(
+                    "not well-formed XML: {detail}the file ends inside <{name}> (opened on line {}); is it truncated?",
+                    line_at(&text.as_bytes()[..start])
+                )
+            }
+            None => format!(
+                "not well-formed XML: {detail}the file ends before the root element is closed; is it truncated?"
+            ),
+        };
     }
     error
 }
