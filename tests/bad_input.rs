@@ -255,11 +255,18 @@ fn truncated_files_name_the_element_they_end_inside() {
             "{tail:?}: {e}"
         );
     }
-    // The same faults with the file going on are not called truncation.
+    // The same faults with the file going on, and a whole file with
+    // something after its root element, are not called truncation.
+    let mut whole = Vec::new();
     for tail in ["<!-- a note", "&am"] {
-        let text = format!("{}\n{tail}\n{}", &BASE[..at], &BASE[at..]);
+        whole.push(format!("{}\n{tail}\n{}", &BASE[..at], &BASE[at..]));
+    }
+    for tail in ["junk", "\0\0", "\u{1a}", "<!-- a note", "&amp;"] {
+        whole.push(format!("{BASE}{tail}"));
+    }
+    for text in whole {
         let e = load_err(&text);
-        assert!(!e.message.contains("truncated"), "{tail:?}: {e}");
+        assert!(!e.message.contains("truncated"), "{e}");
     }
     // Cut inside the root's own start tag: nothing was opened yet.
     let cut = "COLLADASchema";

@@ -263,9 +263,18 @@ fn outputs_that_cannot_be_written_are_refused_before_rendering() {
         ),
         (
             vec!["-s", "64", "-f", adaptive.to_str().unwrap(), scene],
-            format!("the rate image {}: is a folder", rate_folder.display()),
+            format!(
+                "-f {}: its rate image {}: is a folder",
+                adaptive.display(),
+                rate_folder.display()
+            ),
         ),
     ];
+    let slash = format!("{}/", scratch_path("slash.png").display());
+    cases.push((
+        vec!["-f", &slash, scene],
+        format!("-f {slash}: the name ends in a path separator"),
+    ));
     // A file system that takes no new files (Linux's /proc).
     if Path::new("/proc/self").is_dir() {
         cases.push((
@@ -297,6 +306,17 @@ fn outputs_that_cannot_be_written_are_refused_before_rendering() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
 
+    // A link to a file not made yet is written through, as before the check.
+    #[cfg(unix)]
+    {
+        let target = scratch("link-target.png");
+        let link = scratch("link.png");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        let o = wavepath(&["-q", "-r", "8", "6", "-f", link.to_str().unwrap(), scene]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(target.is_file());
+    }
+
     // The check leaves nothing behind: a new file it made is removed when
     // a later step fails, and a file that exists keeps its bytes.
     let fresh = scratch("probe-fresh.png");
@@ -324,7 +344,7 @@ fn settings_that_leave_light_out_are_warned_about() {
         (
             vec!["-H", "-f", png, point_light],
             Some(
-                "-H: uniform hemisphere sampling never finds the scene's 1 point or directional light",
+                "uniform hemisphere sampling (-H) never finds the scene's 1 point or directional light",
             ),
         ),
         (vec!["-f", png, point_light], None),

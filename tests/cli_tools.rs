@@ -261,9 +261,15 @@ fn converge_makes_a_reference_with_its_noise_and_writes_csv_and_plot() {
 fn converge_refuses_a_reference_of_another_image() {
     let dir = scratch("converge_expectation");
     let point_light = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/point_light.dae");
-    let scene = wavepath::scene::collada::load_file(Path::new(SCENE)).unwrap();
-    let camera = wavepath::scene::camera_file::write(&scene.camera, 8, 6);
-    std::fs::write(dir.join("view.txt"), camera).unwrap();
+    // The scene's camera moved one unit along x, as a -c file, and the
+    // same file laid out differently.
+    let mut camera = wavepath::scene::collada::load_file(Path::new(SCENE))
+        .unwrap()
+        .camera;
+    camera.position.x += 1.0;
+    let moved = wavepath::scene::camera_file::write(&camera, 8, 6);
+    std::fs::write(dir.join("moved.txt"), &moved).unwrap();
+    std::fs::write(dir.join("moved_again.txt"), moved.replace(' ', "\n  ")).unwrap();
     let make = [
         "converge",
         "-q",
@@ -312,11 +318,7 @@ fn converge_refuses_a_reference_of_another_image() {
             SCENE,
             "-b 0 where these renders use -b 0.1",
         ),
-        (
-            &["-m", "2", "-c", "view.txt"],
-            SCENE,
-            "another camera (-c file)",
-        ),
+        (&["-m", "2", "-c", "moved.txt"], SCENE, "another camera"),
     ] {
         let o = measure(flags, scene);
         assert_refused(&o, "ref.exr");
@@ -327,11 +329,109 @@ fn converge_refuses_a_reference_of_another_image() {
         );
         assert!(!dir.join("converge.csv").exists(), "{flags:?}");
     }
-    let o = measure(
-        &["-m", "2", "-H", "-l", "3", "--seed", "7", "--no-roulette"],
-        SCENE,
-    );
+    // What changes only the noise may differ, and so may the spelling of
+    // a value or a file.
+    for flags in [
+        &["-m", "2", "-H", "-l", "3", "--seed", "7", "--no-roulette"][..],
+        &["-m", "2", "-b", "-0"],
+    ] {
+        let o = measure(flags, SCENE);
+        assert!(o.status.success(), "{flags:?}: {}", text(&o.stderr));
+    }
+    let make_with = |flags: &[&str], scene: &str| {
+        let o = wavepath_in(
+            &dir,
+            &[&make[..], flags, &["--ref", "ref.exr", scene]].concat(),
+        );
+        assert!(o.status.success(), "{}", text(&o.stderr));
+    };
+    make_with(&["-c", "moved.txt"], SCENE);
+    let o = measure(&["-m", "2", "-c", "moved_again.txt"], SCENE);
     assert!(o.status.success(), "{}", text(&o.stderr));
+
+    // With a point light, -H is another image: it misses that light.
+    make_with(&[], point_light);
+    let o = measure(&["-m", "2", "-l", "2"], point_light);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let o = measure(&["-m", "2", "-H"], point_light);
+    assert_refused(&o, "ref.exr");
+    let err = text(&o.stderr);
+    assert!(err.contains("which -H leaves out here"), "{err}");
+    make_with(&["-H"], point_light);
+    let o = measure(&["-m", "2"], point_light);
+    assert_refused(&o, "ref.exr");
+    let err = text(&o.stderr);
+    assert!(
+        err.contains("without the point and directional lights' light"),
+        "{err}"
+    );
+
+    // A reference from elsewhere records nothing: taken on trust, said so.
+    render(&reference, 8, 6, 4, 0);
+    let o = measure(&["-m", "3"], SCENE);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("records no settings"),
+        "{}",
+        text(&o.stderr)
+    );
+}
+
+/// A reference's own relMSE, measured from its replicates, is what two
+/// independent references actually differ by: the relMSE between them is
+/// the sum of their own, in expectation. (The s²/n of each pixel's
+/// stratified samples overstated it several times on such an image.)
+#[test]
+fn a_references_own_error_is_what_two_references_differ_by() {
+    let dir = scratch("converge_own_error");
+    let own: Vec<f64> = ["0", "1"]
+        .iter()
+        .map(|seed| {
+            let name = format!("ref{seed}.exr");
+            let (out, _) = converge(
+                &dir,
+                &[
+                    "--make-reference",
+                    "-s",
+                    "256",
+                    "-m",
+                    "2",
+                    "-r",
+                    "48",
+                    "36",
+                    "--seed",
+                    seed,
+                    "--ref",
+                    &name,
+                ],
+            );
+            out.split("measured from 8 independent replicates: ")
+                .nth(1)
+                .and_then(|v| v.trim().parse().ok())
+                .expect(&out)
+        })
+        .collect();
+    let o = wavepath_in(&dir, &["compare", "ref0.exr", "ref1.exr"]);
+    let report = text(&o.stdout);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let between: f64 = report
+        .lines()
+        .find(|l| l.starts_with("all"))
+        .and_then(|l| l.split_whitespace().nth(2))
+        .and_then(|v| v.parse().ok())
+        .expect(&report);
+    // The estimates average ~5,000 pixels' spreads of eight means, and the
+    // difference ~5,000 pixels' squares: each within a few per cent; ±25%
+    // is many standard deviations, and the old estimate was off by 3–10×.
+    let ratio = between / (own[0] + own[1]);
+    assert!(
+        (0.8..1.25).contains(&ratio),
+        "{between} vs {own:?}: {ratio}"
+    );
+    assert!(
+        report.contains("measured from its independent replicates"),
+        "{report}"
+    );
 }
 
 #[test]
@@ -380,8 +480,7 @@ fn converge_refuses_bad_references_naming_the_file() {
     let o = wavepath_in(
         &dir,
         &[
-            "converge", "-r", "16", "12", "-s", "4", "--ref", "big.exr", "--plot", "plot.png",
-            SCENE,
+            "converge", "-r", "16", "12", "--ref", "big.exr", "--plot", "plot.png", SCENE,
         ],
     );
     assert_refused(&o, "plot.png");
@@ -728,9 +827,12 @@ fn converge_refuses_bad_budgets_and_targets() {
     for (flags, says) in [
         (&["-f", "x.png"][..], "converge: -f is not used"),
         (&["-a", "8", "0.1"], "converge: -a is not used"),
+        (&["-p", "0", "0", "4", "4"], "converge: -p is not used"),
+        (&["-e", "sky.exr"], "converge: -e is not used"),
+        (&["--no-adaptive"], "converge: --no-adaptive is not needed"),
         (
-            &["-p", "0", "0", "4", "4"],
-            "-p: converge measures whole images",
+            &["-s", "64"],
+            "converge: -s sets the reference's samples per pixel",
         ),
         (&["--tonemap", "srgb"], "converge: --tonemap is not used"),
         (&["--stats"], "converge: --stats is not used"),
@@ -774,7 +876,9 @@ fn converge_refuses_bad_budgets_and_targets() {
     for hidden in [
         "-f, --output",
         "-a, --adaptive",
+        "--no-adaptive",
         "-p, --region",
+        "-e, --envmap",
         "--tonemap",
         "--stats",
     ] {
@@ -848,7 +952,7 @@ fn converge_reports_each_estimator_against_the_references_noise() {
     );
     assert!(err.contains("rendering the reference: "), "{err}");
     let floor: f64 = out
-        .split("own relMSE, estimated from its variance: ")
+        .split("its own relMSE, measured from 4 independent replicates: ")
         .nth(1)
         .and_then(|v| v.trim().parse().ok())
         .expect(&out);

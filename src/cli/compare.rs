@@ -176,11 +176,11 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
         );
     }
     let has_error = |im: &Image| im.variance.iter().any(|v| *v != Vec3::ZERO);
-    if has_error(&reference) {
-        say!(
-            "reference noise: its own relMSE is about {:.3e} (from its standard-error channels)",
-            metrics::rel_mse_from_variance(&reference)
-        );
+    let exr = |path: &Path| output::Format::from_path(path).ok() == Some(output::Format::Exr);
+    if exr(&args.reference)
+        && let Some((noise, how)) = super::converge::reference_noise(&args.reference, &reference)?
+    {
+        say!("reference noise: its own relMSE is about {noise:.3e} ({how})");
     }
     if has_error(&image) && has_error(&reference) {
         let alpha = 1e-3;

@@ -6,8 +6,10 @@
 //! relMSE and RMSE against a reference ([`crate::film::metrics`]), and
 //! writes a CSV and a log–log error-vs-time plot, plus the interpolated
 //! time to reach target errors. `--make-reference` renders that reference
-//! with its own noise estimate (per-pixel standard-error EXR channels), so
-//! every number can be read against the reference's own noise floor.
+//! as independent replicates whose spread measures its own relMSE
+//! ([`crate::film::replicates`]), recorded in the EXR with per-pixel
+//! standard-error channels, so every number can be read against the
+//! reference's own noise floor.
 //!
 //! The render flags (`-m`, `-l`, `-r`, `--seed`, `-t`, …) are the main
 //! command's [`Args`], flattened in; sampling is never adaptive here.
@@ -24,8 +26,8 @@ use clap::{CommandFactory, FromArgMatches, Parser, ValueEnum};
 use super::Args;
 use super::plot::{self, Curve};
 use crate::bvh::Bvh;
-use crate::film::metrics;
 use crate::film::output::{self, Format};
+use crate::film::{Image, metrics, replicates};
 use crate::integrator::{Settings, View};
 use crate::wavefront::{RenderSettings, Renderer};
 
@@ -85,8 +87,9 @@ impl Estimator {
         wavepath converge --make-reference -s 1024 -m 5 -r 480 360 --ref ref.exr scene.dae\n  \
         wavepath converge -m 5 -r 480 360 --ref ref.exr --estimators hemisphere,light \
         --max-spp 256 --csv conv.csv scene.dae\n\
-        The render flags are those of `wavepath --help`, but for -f, -a, -p, --tonemap \
-        and --stats; -s is the reference's spp and is not used otherwise."
+        The render flags are those of `wavepath --help`, but for -f, -a, -p, -e, \
+        --no-adaptive, --tonemap and --stats, and --shading takes only path; -s is the \
+        reference's spp, given only with --make-reference."
 )]
 pub struct ConvergeArgs {
     #[command(flatten)]
@@ -141,42 +144,135 @@ pub struct ConvergeArgs {
 }
 
 /// The text attribute of a reference EXR's header that records its
-/// [`expectation`], as `setting=value` pairs joined by `;` (one attribute,
-/// as the EXR writer orders several at random, and the same reference
-/// should be the same bytes).
-const EXPECTATION_NOTE: &str = "wavepath.expectation";
+/// [`expectation`] and its own relMSE ([`OWN_REL_MSE`]), as `name=value`
+/// pairs joined by `;` (one attribute, as the EXR writer orders several at
+/// random, and the same reference should be the same bytes).
+const REFERENCE_NOTE: &str = "wavepath.reference";
+
+/// The pair of [`REFERENCE_NOTE`] that holds the reference's own relMSE,
+/// measured from its replicates ([`crate::film::replicates`]).
+const OWN_REL_MSE: &str = "own-relMSE";
+
+/// A reference is rendered as this many independent replicates (fewer when
+/// it has fewer samples per pixel), so that its own error can be measured.
+pub const REFERENCE_REPLICATES: u32 = 8;
+
+/// The pairs of a reference's [`REFERENCE_NOTE`]; `None` for an EXR that
+/// has none (not made by `converge --make-reference`).
+pub(crate) fn reference_note(path: &Path) -> Result<Option<Vec<(String, String)>>> {
+    let notes = output::read_exr_notes(path)?;
+    Ok(notes
+        .into_iter()
+        .find(|(name, _)| name == REFERENCE_NOTE)
+        .map(|(_, text)| {
+            text.split(';')
+                .filter_map(|pair| pair.split_once('='))
+                .map(|(n, v)| (n.to_string(), v.to_string()))
+                .collect()
+        }))
+}
+
+/// A reference's own relMSE and where it comes from: the figure its
+/// replicates measured, where it records one, else the one its per-pixel
+/// standard errors give (an overestimate for stratified samples), else
+/// `None`.
+pub(crate) fn reference_noise(path: &Path, reference: &Image) -> Result<Option<(f64, String)>> {
+    let recorded = reference_note(path)?
+        .and_then(|pairs| pairs.into_iter().find(|(n, _)| n == OWN_REL_MSE))
+        .and_then(|(_, v)| v.parse::<f64>().ok())
+        .filter(|v| v.is_finite() && *v >= 0.0);
+    if let Some(v) = recorded {
+        return Ok(Some((v, "measured from its independent replicates".into())));
+    }
+    if reference.variance.iter().all(|v| *v == glam::Vec3::ZERO) {
+        return Ok(None);
+    }
+    Ok(Some((
+        metrics::rel_mse_from_variance(reference),
+        "from its standard-error channels, s²/n per pixel: for stratified samples usually \
+         an overestimate"
+            .into(),
+    )))
+}
+
+/// Reads the reference for renders with `settings`: of their size, and
+/// with finite pixels.
+fn load_reference(path: &Path, settings: &RenderSettings) -> Result<crate::film::Image> {
+    let reference = super::compare::load(path, crate::film::output::ToneCurve::Reference)?;
+    if (reference.width, reference.height) != (settings.width, settings.height) {
+        bail!(
+            "{} is {}x{} but the renders are {}x{} (give -r {} {})",
+            path.display(),
+            reference.width,
+            reference.height,
+            settings.width,
+            settings.height,
+            reference.width,
+            reference.height
+        );
+    }
+    let bad = reference.non_finite_count();
+    if bad > 0 {
+        bail!(
+            "{}: {bad} pixels are NaN or infinite; every error against it would be NaN",
+            path.display()
+        );
+    }
+    Ok(reference)
+}
+
+/// The fingerprint of the scene file's bytes (or the built-in scene's).
+fn scene_file_digest(args: &Args) -> Result<u64> {
+    Ok(match &args.scene {
+        Some(path) => digest(
+            &std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?,
+        ),
+        None => digest(super::DEFAULT_SCENE.as_bytes()),
+    })
+}
 
 /// What decides the expected value of a render's pixels, besides its size
-/// (checked on its own): the contents of the scene and camera files, the
-/// depth, which bounces count, and the lens. The estimator, seed, `-l` and
-/// roulette change only the noise, so a reference may differ in those.
-/// Each entry is (setting, value); `--make-reference` records them in the
-/// EXR ([`EXPECTATION_NOTE`]), and a reference that recorded other values
-/// is refused: error measured against another image means nothing.
-fn expectation(args: &Args, settings: &RenderSettings) -> Result<Vec<(&'static str, String)>> {
-    let scene = match &args.scene {
-        Some(path) => {
-            std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?
-        }
-        None => super::DEFAULT_SCENE.as_bytes().to_vec(),
-    };
-    let camera = match &args.camera {
-        Some(file) => format!("{:016x}", digest(super::read_camera_file(file)?.as_bytes())),
-        None => "none".into(),
-    };
+/// (checked on its own): the scene file (`scene_digest`), the camera as
+/// loaded (the scene's, or a `-c` file's), the depth, which bounces count,
+/// the lens, and whether the point and directional lights are found
+/// (`-H` misses them). The seed, `-l` and roulette change only the noise,
+/// and so does the estimator where the scene has no such lights, so a
+/// reference may differ in those. Each entry is (setting, value);
+/// `--make-reference` records them in the EXR ([`EXPECTATION_NOTE`]), and
+/// a reference that recorded other values is refused: error measured
+/// against another image means nothing.
+fn expectation(
+    scene_digest: u64,
+    settings: &RenderSettings,
+    scene: &crate::scene::Scene,
+) -> Vec<(&'static str, String)> {
     let s = &settings.integrator;
+    // -0 and 0 are the same lens.
+    let lens_radius = if settings.lens_radius == 0.0 {
+        0.0
+    } else {
+        settings.lens_radius
+    };
     let mut expected = vec![
-        ("scene", format!("{:016x}", digest(&scene))),
-        ("-c", camera),
+        ("scene", format!("{scene_digest:016x}")),
+        (
+            "camera",
+            format!("{:016x}", digest(format!("{:?}", scene.camera).as_bytes())),
+        ),
         ("-m", s.max_depth.to_string()),
         ("--bounces", clap_name(&s.bounces)),
-        ("-b", settings.lens_radius.to_string()),
+        ("-b", lens_radius.to_string()),
     ];
     // Without a lens every distance is in focus.
-    if settings.lens_radius > 0.0 {
+    if lens_radius > 0.0 {
         expected.push(("-d", settings.focal_distance.to_string()));
     }
-    Ok(expected)
+    let (found, missed) = s.delta_lights(&scene.lights);
+    if found + missed > 0 {
+        let seen = if missed > 0 { "missed" } else { "found" };
+        expected.push(("point and directional lights", seen.into()));
+    }
+    expected
 }
 
 /// A flag value's name as given on the command line.
@@ -194,23 +290,31 @@ fn digest(bytes: &[u8]) -> u64 {
 }
 
 /// Refuses a reference whose header records another [`expectation`] than
-/// `ours` (one that records none, from another program, is taken on trust).
+/// `ours`. One that records none (from another program) is taken on
+/// trust, with a warning.
 fn check_expectation(path: &Path, ours: &[(&str, String)]) -> Result<()> {
-    let notes = output::read_exr_notes(path)?;
-    let Some((_, recorded)) = notes.iter().find(|(name, _)| name == EXPECTATION_NOTE) else {
+    let Some(theirs) = reference_note(path)? else {
+        eprintln!(
+            "warning: {} records no settings (it was not made by converge --make-reference): \
+             taken on trust to show the image these renders estimate",
+            path.display()
+        );
         return Ok(());
     };
-    let theirs: Vec<(&str, &str)> = recorded
-        .split(';')
-        .filter_map(|pair| pair.split_once('='))
-        .collect();
     let differences: Vec<String> = ours
         .iter()
         .filter_map(|(name, value)| {
             let (_, theirs) = theirs.iter().find(|(n, _)| n == name)?;
-            (theirs != value).then(|| match *name {
-                "scene" => "another scene file, or another version of it".to_string(),
-                "-c" => "another camera (-c file)".to_string(),
+            (theirs != value).then(|| match (*name, theirs.as_str()) {
+                ("scene", _) => "another scene file, or another version of it".to_string(),
+                ("camera", _) => "another camera".to_string(),
+                ("point and directional lights", "missed") => {
+                    "without the point and directional lights' light (made with -H)".to_string()
+                }
+                ("point and directional lights", _) => {
+                    "with the point and directional lights' light, which -H leaves out here"
+                        .to_string()
+                }
                 _ => format!("{name} {theirs} where these renders use {name} {value}"),
             })
         })
@@ -286,7 +390,7 @@ pub fn time_to_reach(points: &[(f64, f64)], target: f64) -> Option<(f64, bool)> 
 /// Render flags that mean nothing here (the id of each in [`Args`], and
 /// why): given, they are refused rather than ignored, and `--help` does
 /// not list them.
-const NOT_USED: [(&str, &str); 5] = [
+const NOT_USED: [(&str, &str); 7] = [
     (
         "output",
         "converge: -f is not used; name the reference with --ref, outputs with --csv and --plot",
@@ -297,7 +401,7 @@ const NOT_USED: [(&str, &str); 5] = [
     ),
     (
         "region",
-        "-p: converge measures whole images and does not take a cell",
+        "converge: -p is not used; it measures whole images, not a cell",
     ),
     (
         "tonemap",
@@ -306,6 +410,14 @@ const NOT_USED: [(&str, &str); 5] = [
     (
         "stats",
         "converge: --stats is not used; see `wavepath --stats` for a render's statistics",
+    ),
+    (
+        "no_adaptive",
+        "converge: --no-adaptive is not needed; sampling is never adaptive here",
+    ),
+    (
+        "envmap",
+        "converge: -e is not used; environment maps are not supported yet",
     ),
 ];
 
@@ -329,6 +441,12 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     let from_command_line = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
     if let Some((_, why)) = NOT_USED.iter().find(|(id, _)| from_command_line(id)) {
         bail!("{why}");
+    }
+    if from_command_line("spp") && !args.make_reference {
+        bail!(
+            "converge: -s sets the reference's samples per pixel, with --make-reference; \
+             the budgets measured are 1, 2, 4, … up to --max-spp"
+        );
     }
     if args.render.shading != View::Path {
         bail!(
@@ -380,7 +498,9 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         vec![("--csv", &args.csv), ("--plot", &plot_path)]
     };
     for (flag, path) in outputs {
-        super::check_writable(flag, path).map_err(anyhow::Error::msg)?;
+        if let Some(why) = super::unwritable(path) {
+            bail!("{flag} {}: {why}", path.display());
+        }
     }
     let chatty = !args.render.quiet;
 
@@ -390,15 +510,40 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
+    let estimators = match (args.make_reference, args.estimators.as_slice()) {
+        (true, [_, _, ..]) => {
+            bail!("--make-reference renders one estimator; give at most one in --estimators")
+        }
+        (_, []) => vec![Estimator::from_settings(&settings.integrator)],
+        (_, chosen) => chosen.to_vec(),
+    };
+    for &estimator in &estimators {
+        warn_blind_spots(estimator, &settings.integrator, &scene.lights);
+    }
+    let scene_digest = scene_file_digest(&args.render)?;
+    let base = settings;
+    let expected = |estimator: Estimator| {
+        let mut s = base;
+        estimator.configure(&mut s.integrator);
+        expectation(scene_digest, &s, &scene)
+    };
+
+    // The reference is read and checked before the BVH is built.
+    let reference = if args.make_reference {
+        None
+    } else {
+        let reference = load_reference(&reference_path, &settings)?;
+        for &estimator in &estimators {
+            check_expectation(&reference_path, &expected(estimator))?;
+        }
+        Some(reference)
+    };
+
     let bvh = pool.install(|| Bvh::build(&scene.geometry, args.render.accel));
     let renderer = Renderer::new(&scene, &bvh);
     for w in &renderer.warnings {
         eprintln!("warning: {w}");
     }
-
-    // Of the scene as loaded, and of the settings before an estimator
-    // changes them (which leaves the expected image as it is).
-    let expected = expectation(&args.render, &settings)?;
 
     let cancel = super::cancel_on_ctrl_c();
     let render = |s: &RenderSettings| {
@@ -410,15 +555,9 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         (out, wall, cpu)
     };
 
-    if args.make_reference {
-        if args.estimators.len() > 1 {
-            bail!("--make-reference renders one estimator; give at most one in --estimators");
-        }
-        if let Some(e) = args.estimators.first() {
-            e.configure(&mut settings.integrator);
-        }
-        let estimator = Estimator::from_settings(&settings.integrator);
-        warn_blind_spots(estimator, &settings.integrator, &scene.lights);
+    let Some(reference) = reference else {
+        let estimator = estimators[0];
+        estimator.configure(&mut settings.integrator);
         settings.spp = args.render.spp;
         settings.seed = settings.seed.wrapping_add(REFERENCE_SEED_OFFSET);
         if chatty {
@@ -431,66 +570,65 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
                 estimator.name()
             );
         }
-        let (out, secs, _) = render(&settings);
-        if !out.complete {
-            eprintln!("interrupted: no reference written");
-            return Ok(super::EXIT_INTERRUPTED);
+        // Independent replicates, each with its own seeds (spaced so that
+        // references made with neighbouring --seed values share none).
+        let parts = settings.spp.min(REFERENCE_REPLICATES);
+        let seed = settings.seed;
+        settings.spp = settings.spp.div_ceil(parts);
+        let mut replicates = Vec::new();
+        let mut secs = 0.0;
+        for k in 0..parts {
+            settings.seed = seed.wrapping_add(k.wrapping_mul(0x9e37_79b9));
+            let (out, s, _) = render(&settings);
+            secs += s;
+            if !out.complete {
+                eprintln!("interrupted: no reference written");
+                return Ok(super::EXIT_INTERRUPTED);
+            }
+            replicates.push(out.image);
         }
-        let pairs: Vec<String> = expected.iter().map(|(n, v)| format!("{n}={v}")).collect();
-        let note = (EXPECTATION_NOTE.to_string(), pairs.join(";"));
-        output::write_exr_with_error(&out.image, &reference_path, &[note])?;
+        let combined = replicates::combine(&replicates);
+        let own = combined
+            .rel_mse
+            .unwrap_or_else(|| metrics::rel_mse_from_variance(&combined.image));
+        let mut pairs: Vec<String> = expected(estimator)
+            .iter()
+            .map(|(n, v)| format!("{n}={v}"))
+            .collect();
+        if combined.rel_mse.is_some() {
+            pairs.push(format!("{OWN_REL_MSE}={own:.6e}"));
+        }
+        let note = (REFERENCE_NOTE.to_string(), pairs.join(";"));
+        output::write_exr_with_error(&combined.image, &reference_path, &[note])?;
         say!(
-            "wrote {} ({} spp in {secs:.1} s); its own relMSE, estimated from its variance: {:.3e}",
+            "wrote {} ({} spp in {secs:.1} s); its own relMSE, {}: {own:.3e}",
             reference_path.display(),
-            settings.spp,
-            metrics::rel_mse_from_variance(&out.image)
+            parts * settings.spp,
+            match combined.rel_mse {
+                Some(_) => format!("measured from {parts} independent replicates"),
+                None => "estimated from its variance".to_string(),
+            }
         );
         return Ok(0);
-    }
-
-    let reference =
-        super::compare::load(&reference_path, crate::film::output::ToneCurve::Reference)?;
-    if (reference.width, reference.height) != (settings.width, settings.height) {
-        bail!(
-            "{} is {}x{} but the renders are {}x{} (give -r {} {})",
-            reference_path.display(),
-            reference.width,
-            reference.height,
-            settings.width,
-            settings.height,
-            reference.width,
-            reference.height
-        );
-    }
-    check_expectation(&reference_path, &expected)?;
-    let bad = reference.non_finite_count();
-    if bad > 0 {
-        bail!(
-            "{}: {bad} pixels are NaN or infinite; every error against it would be NaN",
-            reference_path.display()
-        );
-    }
-    let floor = metrics::rel_mse_from_variance(&reference);
-    if reference.variance.iter().all(|v| *v == glam::Vec3::ZERO) {
-        eprintln!(
-            "warning: {} has no standard-error channels: its own noise is unknown and not subtracted",
-            reference_path.display()
-        );
-    } else {
-        say!(
-            "reference {}: own relMSE about {floor:.3e} (measured relMSE = true relMSE + this, in expectation)",
-            reference_path.display()
-        );
-    }
-
-    let estimators = if args.estimators.is_empty() {
-        vec![Estimator::from_settings(&settings.integrator)]
-    } else {
-        args.estimators.clone()
     };
-    for &estimator in &estimators {
-        warn_blind_spots(estimator, &settings.integrator, &scene.lights);
-    }
+
+    let floor = match reference_noise(&reference_path, &reference)? {
+        Some((floor, how)) => {
+            say!(
+                "reference {}: own relMSE about {floor:.3e}, {how} (measured relMSE = true relMSE + this, in expectation)",
+                reference_path.display()
+            );
+            floor
+        }
+        None => {
+            eprintln!(
+                "warning: {} has no standard-error channels: its own noise is unknown and not subtracted",
+                reference_path.display()
+            );
+            0.0
+        }
+    };
+
     // With --seconds and no explicit --max-spp, time alone stops the doubling.
     let max_spp = if args.seconds.is_some() && !from_command_line("max_spp") {
         u32::MAX / 2

@@ -161,38 +161,43 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
     (settings, output)
 }
 
-/// Refuses an output file that cannot be written, so that it is found out
-/// before the render rather than after: a missing folder, a folder in its
-/// place, or a place that may not be written (permissions, a read-only
-/// mount, a pseudo file system such as /proc). A file that exists is
-/// opened for writing without being truncated; one that does not is
-/// created and removed again, the only sure test of all of these.
-pub(crate) fn check_writable(
-    flag: &str,
-    path: &std::path::Path,
-) -> std::result::Result<(), String> {
+/// Why the output file `path` cannot be written, found out before the
+/// render rather than after it: a missing folder, a folder in its place,
+/// or a place that may not be written (permissions, a read-only mount, a
+/// pseudo file system such as /proc). A regular file that exists is
+/// opened for writing without being truncated; a name that does not exist
+/// is created and removed again, the only sure test of all of these.
+/// Other things (a pipe, a device, a dangling link) are left to the
+/// write itself: opening a pipe would wait for a reader.
+pub(crate) fn unwritable(path: &std::path::Path) -> Option<String> {
+    if path
+        .as_os_str()
+        .to_string_lossy()
+        .ends_with(std::path::MAIN_SEPARATOR)
+    {
+        return Some("the name ends in a path separator: a folder's name, not a file's".into());
+    }
     let folder = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(std::path::Path::new("."));
-    let at = || format!("{flag} {}", path.display());
     if !folder.is_dir() {
-        return Err(format!("{}: there is no folder {}", at(), folder.display()));
+        return Some(format!("there is no folder {}", folder.display()));
     }
     if path.is_dir() {
-        return Err(format!("{}: is a folder, not a file", at()));
+        return Some("is a folder, not a file".into());
     }
     let mut open = std::fs::OpenOptions::new();
     open.write(true);
-    let probe = if path.exists() {
-        open.open(path).map(drop)
-    } else {
-        open.create_new(true).open(path).and_then(|file| {
+    let probe = match path.symlink_metadata() {
+        Ok(_) if path.is_file() => open.open(path).map(drop),
+        Ok(_) => return None,
+        Err(_) => open.create_new(true).open(path).and_then(|file| {
             drop(file);
             std::fs::remove_file(path)
-        })
+        }),
     };
-    probe.map_err(|e| format!("{}: cannot write there: {e}", at()))
+    probe.err().map(|e| format!("cannot write there: {e}"))
 }
 
 /// `-p X Y DX DY` as the reference reads it: the cell of columns X..X+DX
@@ -339,14 +344,18 @@ pub fn run() -> Result<i32> {
     }
     let args = Args::parse_from(argv);
     let (settings, output_path) = validate(&args);
-    let mut outputs = vec![("-f", output_path.clone())];
-    if settings.adaptive.is_some() {
-        outputs.push(("the rate image", output::rate_path(&output_path)));
+    let image = format!("-f {}", output_path.display());
+    if let Some(why) = unwritable(&output_path) {
+        usage_error::<Args>(format!("{image}: {why}"));
     }
-    for (what, path) in &outputs {
-        if let Err(e) = check_writable(what, path) {
-            usage_error::<Args>(e);
-        }
+    let rate_path = output::rate_path(&output_path);
+    if settings.adaptive.is_some()
+        && let Some(why) = unwritable(&rate_path)
+    {
+        usage_error::<Args>(format!(
+            "{image}: its rate image {}: {why}",
+            rate_path.display()
+        ));
     }
     let chatty = !args.quiet;
 
@@ -417,7 +426,6 @@ pub fn run() -> Result<i32> {
     }
     output::write_image(&result.image, &output_path, args.tonemap, with_rate)?;
     if with_rate {
-        let rate_path = output::rate_path(&output_path);
         output::write_rate_png(&result.image, settings.spp, &rate_path)?;
     }
 

@@ -1,4 +1,5 @@
-//! Film: per-pixel accumulation, the adaptive-sampling mask, and image output.
+//! Film: per-pixel accumulation, the adaptive-sampling mask, image output,
+//! and references combined from independent replicates.
 //!
 //! The film is written tile by tile: each render task owns a [`TileFilm`]
 //! and hands it back when done, so accumulation needs no locks.
@@ -6,6 +7,7 @@
 pub mod adaptive;
 pub mod metrics;
 pub mod output;
+pub mod replicates;
 
 use glam::{DVec3, Vec3};
 

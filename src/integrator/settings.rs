@@ -82,6 +82,26 @@ impl Settings {
             }
     }
 
+    /// How many of `lights` are point or directional lights that light the
+    /// image (they emit, and the path view goes past emission), as (found,
+    /// missed). A point or directional light is reached along one direction
+    /// only, which a direction drawn from the hemisphere (`-H`) hits with
+    /// probability 0, so `-H` misses them all.
+    pub fn delta_lights(&self, lights: &[Light]) -> (usize, usize) {
+        if self.view != View::Path || self.max_depth == 0 {
+            return (0, 0);
+        }
+        let count = lights
+            .iter()
+            .filter(|l| l.emits() && matches!(l, Light::Point { .. } | Light::Directional { .. }))
+            .count();
+        if self.hemisphere {
+            (0, count)
+        } else {
+            (count, 0)
+        }
+    }
+
     /// What these settings leave out of the image by construction, for a
     /// warning: light the estimator as asked can never find, which a user
     /// would otherwise take for a bug.
@@ -97,15 +117,10 @@ impl Settings {
                 self.max_depth
             ));
         }
-        // A point or directional light is reached along one direction only,
-        // which a direction drawn from the hemisphere hits with probability 0.
-        let delta = lights
-            .iter()
-            .filter(|l| l.emits() && matches!(l, Light::Point { .. } | Light::Directional { .. }))
-            .count();
-        if self.hemisphere && self.max_depth > 0 && delta > 0 {
+        let (_, delta) = self.delta_lights(lights);
+        if delta > 0 {
             notes.push(format!(
-                "-H: uniform hemisphere sampling never finds the scene's {delta} point or \
+                "uniform hemisphere sampling (-H) never finds the scene's {delta} point or \
                  directional light{}, so {} light is missing from the image (light sampling, \
                  without -H, finds {})",
                 if delta == 1 { "" } else { "s" },
@@ -149,7 +164,7 @@ mod tests {
         let notes = hemisphere.blind_spots(&lights);
         assert_eq!(notes.len(), 1, "{notes:?}");
         assert!(
-            notes[0].starts_with("-H: uniform hemisphere sampling never finds the scene's 2 point or directional lights, so their light"),
+            notes[0].starts_with("uniform hemisphere sampling (-H) never finds the scene's 2 point or directional lights, so their light"),
             "{notes:?}"
         );
         let one = hemisphere.blind_spots(&lights[..1]);

@@ -140,38 +140,40 @@ fn xml_error(text: &str, path: &Path, e: roxmltree::Error) -> LoadError {
         ..LoadError::file(path, format!("not well-formed XML: {what}"))
     };
     let last_line = line_at(text.trim_end().as_bytes());
-    // The file ends early: these errors carry no position (roxmltree says
-    // 1:1); others (a comment, CDATA section, processing instruction or
-    // entity left open) are reported on the last line of a file whose
-    // text does not end a tag.
-    let (ends_early, detail) = match &e {
-        roxmltree::Error::UnclosedRootNode | roxmltree::Error::UnexpectedEndOfStream => {
-            (true, String::new())
-        }
-        _ => (
-            e.pos().row >= last_line && !text.trim_end().ends_with('>'),
-            format!("{what}; "),
-        ),
+    let open = xml::innermost_open_element(text);
+    let ends_inside = |name: &str, start: usize| {
+        format!(
+            "the file ends inside <{name}> (opened on line {}); is it truncated?",
+            line_at(&text.as_bytes()[..start])
+        )
     };
-    if let roxmltree::Error::UnexpectedCloseTag(expected, ..) = &e {
+    match (&e, open) {
         // Name the element whose end tag is missing or misspelt.
-        error.element = Some(expected.clone());
-    }
-    if ends_early {
-        // Point at the last line and the element the file was cut off inside.
-        error.line = Some(last_line);
-        error.message = match xml::innermost_open_element(text) {
-            Some((name, start)) => {
-                error.element = Some(name.to_string());
-                format!(
-                    "not well-formed XML: {detail}the file ends inside <{name}> (opened on line {}); is it truncated?",
-                    line_at(&text.as_bytes()[..start])
-                )
-            }
-            None => format!(
-                "not well-formed XML: {detail}the file ends before the root element is closed; is it truncated?"
-            ),
-        };
+        (roxmltree::Error::UnexpectedCloseTag(expected, ..), _) => {
+            error.element = Some(expected.clone());
+        }
+        // These carry no position (roxmltree says 1:1): the file ends early,
+        // so point at its last line and the element it was cut off inside.
+        (roxmltree::Error::UnclosedRootNode | roxmltree::Error::UnexpectedEndOfStream, _) => {
+            error.line = Some(last_line);
+            error.message = match open {
+                Some((name, start)) => {
+                    error.element = Some(name.to_string());
+                    format!("not well-formed XML: {}", ends_inside(name, start))
+                }
+                None => "not well-formed XML: the file ends before the root element is closed; is it truncated?".to_string(),
+            };
+        }
+        // Any other error on the last line of a file whose text does not end
+        // a tag, while an element is still open (a comment, CDATA section,
+        // processing instruction or entity left open at the end): cut off
+        // there too. The parser's complaint and position stay, and the hint
+        // follows.
+        (_, Some((name, start))) if e.pos().row >= last_line && !text.trim_end().ends_with('>') => {
+            error.element = Some(name.to_string());
+            error.message = format!("{}; {}", error.message, ends_inside(name, start));
+        }
+        _ => {}
     }
     error
 }

@@ -1,0 +1,144 @@
+//! A reference image rendered as independent replicates — the same render
+//! with different seeds — and combined, so that its own error can be
+//! measured rather than assumed.
+//!
+//! Why: the samples of one pixel are stratified (Owen-scrambled Sobol), so
+//! the textbook variance of their mean, s²/n, overstates the mean's error:
+//! stratification cancels most of the smooth variation across a pixel and
+//! along low dimensions, which s² counts in full. On a small image at low
+//! depth the overstatement is 6–10×. Replicates scrambled independently
+//! are independent, identically distributed estimates of every pixel
+//! (randomised quasi-Monte Carlo), so the spread of their means is an
+//! honest estimate of the combined mean's variance:
+//!
+//! ```text
+//! Var(m̄) ≈ Σₖ (mₖ − m̄)² / (K (K − 1))
+//! ```
+//!
+//! Per pixel that estimate has only K − 1 degrees of freedom — too few for
+//! a per-pixel test at a Bonferroni threshold — so the combined image keeps
+//! the pooled s²/N in its per-pixel variance (a conservative bound, and
+//! what a single render of N samples would have stored), and the spread is
+//! averaged over the image into the one figure that needs it: the
+//! reference's own relMSE, which `converge` subtracts from its
+//! measurements.
+
+use glam::Vec3;
+
+use super::Image;
+use super::metrics;
+
+/// Replicates combined into one reference.
+pub struct Combined {
+    /// The mean of the replicates' means; `variance` is the pooled s²/N of
+    /// all their samples, `samples` their total count.
+    pub image: Image,
+    /// The combined image's own relMSE from the replicates' spread (mean
+    /// over pixels and channels of Var(m̄) / (m̄² + ε)); `None` with fewer
+    /// than two replicates.
+    pub rel_mse: Option<f64>,
+}
+
+/// Combines renders of one image that differ only in their seed, each
+/// with the same number of samples per pixel.
+///
+/// # Panics
+/// If `replicates` is empty or the images differ in size.
+pub fn combine(replicates: &[Image]) -> Combined {
+    let first = &replicates[0];
+    assert!(
+        replicates
+            .iter()
+            .all(|r| (r.width, r.height) == (first.width, first.height)),
+        "replicates of one image have one size"
+    );
+    let k = replicates.len() as f32;
+    let mut image = Image::new(first.width, first.height);
+    // The spread of the replicates' means, as the variance of their mean.
+    let mut spread = Image::new(first.width, first.height);
+    for i in 0..image.pixels.len() {
+        let mean = replicates.iter().map(|r| r.pixels[i]).sum::<Vec3>() / k;
+        let n = replicates.iter().map(|r| r.samples[i]).sum::<u32>();
+        // Σ (mₖ − m̄)²: between replicates.
+        let between = replicates
+            .iter()
+            .map(|r| (r.pixels[i] - mean).powf(2.0))
+            .sum::<Vec3>();
+        // Σ (nₖ − 1) sₖ², with sₖ² = nₖ · (the variance of replicate k's
+        // mean): within replicates.
+        let within = replicates
+            .iter()
+            .map(|r| {
+                let nk = r.samples[i] as f32;
+                r.variance[i] * nk * (nk - 1.0).max(0.0)
+            })
+            .sum::<Vec3>();
+        // Pooled s² over all N samples is (within + n·between)/(N − 1) when
+        // every replicate has n samples; its mean's variance is that / N.
+        let per = n as f32 / k;
+        image.pixels[i] = mean;
+        image.samples[i] = n;
+        image.variance[i] = if n > 1 {
+            (within + per * between) / ((n as f32 - 1.0) * n as f32)
+        } else {
+            Vec3::ZERO
+        };
+        spread.pixels[i] = mean;
+        if replicates.len() > 1 {
+            spread.variance[i] = between / (k * (k - 1.0));
+        }
+    }
+    let rel_mse = (replicates.len() > 1).then(|| metrics::rel_mse_from_variance(&spread));
+    Combined { image, rel_mse }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An image of one pixel holding `samples`, as the film stores them:
+    /// their mean and s²/n.
+    fn pixel_of(samples: &[f32]) -> Image {
+        let n = samples.len() as f32;
+        let mean = samples.iter().sum::<f32>() / n;
+        let s2 = samples.iter().map(|x| (x - mean).powi(2)).sum::<f32>() / (n - 1.0).max(1.0);
+        let mut image = Image::new(1, 1);
+        image.pixels[0] = Vec3::splat(mean);
+        image.variance[0] = Vec3::splat(if n > 1.0 { s2 / n } else { 0.0 });
+        image.samples[0] = samples.len() as u32;
+        image
+    }
+
+    #[test]
+    fn pooled_variance_is_that_of_all_samples_in_one_render() {
+        let samples = [0.3, 1.7, 0.2, 0.9, 2.5, 0.0, 1.1, 0.4, 0.8, 1.3, 0.6, 2.0];
+        let whole = pixel_of(&samples);
+        for k in [1, 2, 3, 4, 12] {
+            let parts: Vec<Image> = samples.chunks(12 / k).map(pixel_of).collect();
+            let c = combine(&parts);
+            let (got, want) = (c.image.variance[0].x, whole.variance[0].x);
+            assert!(
+                (got - want).abs() < 1e-6 * want,
+                "{k} parts: {got} vs {want}"
+            );
+            assert!((c.image.pixels[0].x - whole.pixels[0].x).abs() < 1e-6);
+            assert_eq!(c.image.samples[0], 12);
+            assert_eq!(c.rel_mse.is_some(), k > 1);
+        }
+    }
+
+    #[test]
+    fn the_spread_of_the_replicates_gives_the_relmse() {
+        // Four replicates whose means are 1, 2, 3 and 2 (mean 2): the
+        // spread Σ(m − m̄)² = 2 gives Var(m̄) = 2 / (4·3) = 1/6, whatever
+        // their samples' own variance.
+        let parts: Vec<Image> = [[0.0, 2.0], [2.0, 2.0], [1.0, 5.0], [2.0, 2.0]]
+            .iter()
+            .map(|s| pixel_of(s))
+            .collect();
+        let c = combine(&parts);
+        let want = (1.0 / 6.0) / (4.0 + metrics::REL_EPSILON);
+        let got = c.rel_mse.unwrap();
+        assert!((got - want).abs() < 1e-6 * want, "{got} vs {want}");
+    }
+}
