@@ -216,7 +216,10 @@ def torus_knot():
             faces.append([a, d, c, b])
     s.mesh("knot", verts, faces, "knot")
     s.light("sky", "ambient", (0.4, 0.45, 0.5))
-    s.light("sun", "directional", (2.0, 1.9, 1.7), rotate_x(-50))
+    # The direction toward a directional light is T·(0,0,−1,1): turning
+    # −z by 130° about x points it up and toward the camera (+z), so the sun
+    # stands 50° above the floor behind the viewer. (−50° put it below.)
+    s.light("sun", "directional", (2.0, 1.9, 1.7), rotate_x(130))
     s.write("torus_knot.dae", translate((0, 1.5, 3)))
 
 
