@@ -1096,4 +1096,23 @@ fn the_closing_report_says_what_was_written_unless_quiet() {
     let o = render_to(scene, &out, &[&["-q"], &args[..]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(stderr(&o), "");
+
+    // Adaptive: how many pixels stopped before -s, as the EXR counts them.
+    let exr = scratch("report.exr");
+    let _ = scratch("report_rate.png");
+    let args = ["-s", "64", "-a", "16", "0.1", "-r", "20", "10"];
+    let o = render_to(scene, &exr, &args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let samples = read_image(&exr).unwrap().samples;
+    let early = samples.iter().filter(|&&n| n < 64).count();
+    let mean = samples.iter().sum::<u32>() as f64 / 200.0;
+    assert!(
+        early > 0 && early < 200,
+        "the test wants some pixels to stop: {early}"
+    );
+    let wrote = format!(
+        "wrote {} (20x10, {mean:.2} samples/pixel on average; {early} of 200 pixels stopped before 64)",
+        exr.display()
+    );
+    assert!(stderr(&o).contains(&wrote), "{}", stderr(&o));
 }

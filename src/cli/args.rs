@@ -147,7 +147,7 @@ pub struct Args {
           value_parser = clap::value_parser!(u32).range(1..=1_048_576))]
     pub batch_size: u32,
 
-    /// No progress bar or timings (warnings and errors still go to stderr)
+    /// No progress (a bar on a terminal, else a line every 10 s) or closing report (warnings and errors still go to stderr)
     #[arg(short = 'q', long = "quiet")]
     pub quiet: bool,
 

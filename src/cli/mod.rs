@@ -410,8 +410,16 @@ pub fn run() -> Result<i32> {
     } else {
         ProgressBar::hidden()
     };
+    // Without a terminal (a log, a pipe): a line every ten seconds instead.
+    let lines = (chatty && bar.is_hidden())
+        .then(|| report::ProgressLines::new(total_pixels, std::time::Duration::from_secs(10)));
     let t = Instant::now();
-    let on_tile = |pixels: u64| bar.inc(pixels);
+    let on_tile = |pixels: u64| {
+        bar.inc(pixels);
+        if let Some(line) = lines.as_ref().and_then(|l| l.advance(pixels, t.elapsed())) {
+            eprintln!("{line}");
+        }
+    };
     let result = pool.install(|| renderer.render(&settings, &on_tile, &cancel));
     let render_time = t.elapsed();
     bar.finish_and_clear();
@@ -437,6 +445,7 @@ pub fn run() -> Result<i32> {
             render_time,
             &result,
             threads,
+            settings.adaptive.map(|_| settings.spp),
         );
     }
     if args.stats {

@@ -1,12 +1,15 @@
 //! What the command prints after a render: timings and statistics.
 
 use std::path::Path;
+use std::sync::Mutex;
 use std::time::Duration;
 
 use crate::bvh::Bvh;
 use crate::scene::Scene;
 use crate::wavefront::{RenderOutput, Stats};
 
+/// The closing lines of a render. `adaptive_max`: `-s` when sampling was
+/// adaptive, so that the line can say how many pixels stopped before it.
 pub fn timings(
     output: &Path,
     load: Duration,
@@ -14,21 +17,22 @@ pub fn timings(
     render: Duration,
     result: &RenderOutput,
     threads: usize,
+    adaptive_max: Option<u32>,
 ) {
     let rays = result.stats.rays() as f64;
     eprintln!(
-        "wrote {} ({}x{}, {:.1} samples/pixel on average)",
+        "wrote {} ({}x{}, {})",
         output.display(),
         result.image.width,
         result.image.height,
-        result.stats.samples as f64 / (result.image.width as f64 * result.image.height as f64)
+        samples_taken(&result.image.samples, adaptive_max)
     );
     eprintln!(
         "load {:.3} s | BVH build {:.3} s | render {:.3} s on {threads} thread{} | {:.2} Mrays/s",
         load.as_secs_f64(),
         build.as_secs_f64(),
         render.as_secs_f64(),
-        if threads == 1 { "" } else { "s" },
+        plural(threads),
         rays / render.as_secs_f64().max(1e-9) / 1e6
     );
 }
@@ -70,28 +74,154 @@ pub fn stats(
         per_ray(t.nodes_visited),
         per_ray(t.primitives_tested)
     );
-    let total: u64 = stats.stages().iter().map(|(_, s)| s.nanos).sum();
+    let total: u64 = stats.stages().iter().map(|(_, _, s)| s.nanos).sum();
     eprintln!(
-        "{:<12} {:>14} {:>8} {:>10}",
-        "stage", "items", "time %", "runs"
+        "{:<12} {:>14}  {:<31} {:>7} {:>8}",
+        "stage", "items", "of", "time %", "calls"
     );
-    for (name, s) in stats.stages() {
+    for (name, what, s) in stats.stages() {
         if s.runs == 0 {
-            eprintln!("{name:<12} {:>14} {:>8} {:>10}", "skipped", "-", 0);
+            eprintln!(
+                "{name:<12} {:>14}  {what:<31} {:>7} {:>8}",
+                "skipped", "-", 0
+            );
             continue;
         }
         eprintln!(
-            "{name:<12} {:>14} {:>7.1}% {:>10}",
+            "{name:<12} {:>14}  {what:<31} {:>6.1}% {:>8}",
             s.items,
             100.0 * s.nanos as f64 / total.max(1) as f64,
             s.runs
         );
     }
+    eprintln!(
+        "calls: waves of paths through the stage (generate once more per tile pass, \
+         to find the pass done; film once per tile pass)"
+    );
     let secs = render.as_secs_f64().max(1e-9);
     eprintln!(
-        "throughput: {:.2} Mrays/s, {:.2} Msamples/s ({} threads; stage times are summed over threads)",
+        "throughput: {:.2} Mrays/s, {:.2} Msamples/s ({threads} thread{}; stage times are summed over threads)",
         stats.rays() as f64 / secs / 1e6,
         stats.samples as f64 / secs / 1e6,
-        threads
+        plural(threads)
     );
+}
+
+/// The samples per pixel on average and, when sampling was adaptive (up
+/// to `adaptive_max`), how many pixels stopped early: "64.0" alone would
+/// hide a few pixels that stopped at 32.
+fn samples_taken(samples: &[u32], adaptive_max: Option<u32>) -> String {
+    let total: u64 = samples.iter().map(|&n| n as u64).sum();
+    let mean = total as f64 / samples.len().max(1) as f64;
+    match adaptive_max {
+        None => format!("{mean:.1} samples/pixel on average"),
+        Some(max) => {
+            let early = samples.iter().filter(|&&n| n < max).count();
+            format!(
+                "{mean:.2} samples/pixel on average; {early} of {} pixels stopped before {max}",
+                samples.len()
+            )
+        }
+    }
+}
+
+/// Progress for a log: where stderr is not a terminal there is no bar, so
+/// a long render prints a line now and then — at most once per `every`,
+/// the first after `every` — saying how far it is and how long it may
+/// take. Renders shorter than `every` print none.
+pub struct ProgressLines {
+    total: u64,
+    every: Duration,
+    /// Pixels done, and when the last line was due.
+    state: Mutex<(u64, Duration)>,
+}
+
+impl ProgressLines {
+    pub fn new(total_pixels: u64, every: Duration) -> Self {
+        ProgressLines {
+            total: total_pixels.max(1),
+            every,
+            state: Mutex::new((0, Duration::ZERO)),
+        }
+    }
+
+    /// Counts `pixels` more done, `elapsed` into the render; returns the
+    /// line to print, if one is due. None once all is done: the closing
+    /// report follows.
+    pub fn advance(&self, pixels: u64, elapsed: Duration) -> Option<String> {
+        let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        state.0 += pixels;
+        let done = state.0;
+        if done >= self.total || elapsed < state.1 + self.every {
+            return None;
+        }
+        state.1 = elapsed;
+        let fraction = done as f64 / self.total as f64;
+        let secs = elapsed.as_secs_f64();
+        let left = if done == 0 {
+            "time left unknown".to_string()
+        } else {
+            format!("about {:.0} s left", secs * (1.0 - fraction) / fraction)
+        };
+        Some(format!(
+            "progress: {:.0}% of pixels done, {secs:.0} s elapsed, {left}",
+            100.0 * fraction
+        ))
+    }
+}
+
+/// "s" unless `n` is 1.
+fn plural(n: usize) -> &'static str {
+    if n == 1 { "" } else { "s" }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{ProgressLines, samples_taken};
+    use std::time::Duration;
+
+    #[test]
+    fn progress_lines_come_at_most_once_per_interval() {
+        let s = Duration::from_secs;
+        let lines = ProgressLines::new(1000, s(10));
+        // Nothing in the first interval, however far the render gets.
+        assert_eq!(lines.advance(100, s(5)), None);
+        assert_eq!(
+            lines.advance(150, s(10)).as_deref(),
+            Some("progress: 25% of pixels done, 10 s elapsed, about 30 s left")
+        );
+        assert_eq!(lines.advance(100, s(19)), None);
+        assert_eq!(
+            lines.advance(150, s(20)).as_deref(),
+            Some("progress: 50% of pixels done, 20 s elapsed, about 20 s left")
+        );
+        // All done: the closing report says the rest.
+        assert_eq!(lines.advance(500, s(40)), None);
+        // Before any pixel is done, no time left is guessed.
+        let stuck = ProgressLines::new(1000, s(10));
+        assert_eq!(
+            stuck.advance(0, s(12)).as_deref(),
+            Some("progress: 0% of pixels done, 12 s elapsed, time left unknown")
+        );
+    }
+
+    #[test]
+    fn the_sample_count_says_how_many_pixels_stopped_early() {
+        // Three pixels at the maximum and one that stopped at half: the
+        // mean alone (56.00) would round to the maximum at one decimal
+        // for a large image.
+        let samples = [64, 64, 32, 64];
+        assert_eq!(
+            samples_taken(&samples, Some(64)),
+            "56.00 samples/pixel on average; 1 of 4 pixels stopped before 64"
+        );
+        assert_eq!(
+            samples_taken(&[64; 4], Some(64)).split("; ").nth(1),
+            Some("0 of 4 pixels stopped before 64")
+        );
+        assert_eq!(
+            samples_taken(&samples, None),
+            "56.0 samples/pixel on average"
+        );
+    }
 }

@@ -46,16 +46,16 @@ pub struct Stats {
 }
 
 impl Stats {
-    /// (name, stage) for reporting, in pipeline order.
-    pub fn stages(&self) -> [(&'static str, Stage); 7] {
+    /// (name, what its items are, stage) for reporting, in pipeline order.
+    pub fn stages(&self) -> [(&'static str, &'static str, Stage); 7] {
         [
-            ("generate", self.generate),
-            ("intersect", self.intersect),
-            ("shade", self.shade),
-            ("shadow-test", self.shadow),
-            ("probe (-H)", self.probe),
-            ("compact", self.compact),
-            ("film", self.film),
+            ("generate", "camera rays", self.generate),
+            ("intersect", "rays", self.intersect),
+            ("shade", "path vertices, hits and misses", self.shade),
+            ("shadow-test", "shadow rays", self.shadow),
+            ("probe (-H)", "rays", self.probe),
+            ("compact", "paths", self.compact),
+            ("film", "pixel samples", self.film),
         ]
     }
 
