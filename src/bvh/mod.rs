@@ -41,6 +41,46 @@
 //! for each of 8 triangles). With the tuned SAH this comes to 51–65 bytes
 //! per triangle on the CS184 meshes and procedural meshes (see `PERF.md`).
 //!
+//! From outside the renderer (a bench, a tool), a triangle soup becomes a
+//! [`Geometry`], and a batch of rays is traced with one call per query:
+//!
+//! ```
+//! use glam::Vec3;
+//! use wavepath::bvh::{Accel, Bvh, TraversalStats};
+//! use wavepath::ray::{Hits, NO_HIT, Rays};
+//! use wavepath::scene::{Geometry, Triangles};
+//!
+//! // Two triangles: a unit square in the z = 0 plane.
+//! let positions = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+//! let indices = vec![[0, 1, 2], [0, 2, 3]];
+//! let geometry = Geometry {
+//!     triangles: Triangles {
+//!         material: vec![0; indices.len()],
+//!         positions,
+//!         indices,
+//!         ..Triangles::default()
+//!     },
+//!     ..Geometry::default()
+//! };
+//! let bvh = Bvh::build(&geometry, Accel::Sah);
+//!
+//! // A batch: one ray down onto each triangle, one beside the square.
+//! let mut rays = Rays::with_capacity(3);
+//! for (x, y) in [(0.75, 0.25), (0.25, 0.75), (2.0, 2.0)] {
+//!     rays.push(Vec3::new(x, y, 1.0), -Vec3::Z, f32::INFINITY);
+//! }
+//! let (mut hits, mut stats) = (Hits::default(), TraversalStats::default());
+//! bvh.intersect(&rays, &mut hits, &mut stats, None);
+//! assert_eq!(hits.prim, [0, 1, NO_HIT]);
+//! assert_eq!(hits.t[..2], [1.0, 1.0]);
+//!
+//! // Any hit, e.g. shadow rays: a ray ending before the square is clear.
+//! rays.t_max[0] = 0.5;
+//! let mut occluded = Vec::new();
+//! bvh.occluded(&rays, &mut occluded, &mut stats);
+//! assert_eq!(occluded, [false, true, false]);
+//! ```
+//!
 //! [`Accel::None`] skips the hierarchy and tests every primitive; it is the
 //! reference the property tests check the others against and the "before"
 //! of the before/after comparison.
