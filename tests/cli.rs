@@ -375,6 +375,62 @@ fn settings_that_leave_light_out_are_warned_about() {
     }
 }
 
+/// An image whose film cannot fit in the memory the process may use is
+/// refused before anything loads, naming both sizes, instead of ending in
+/// an allocation failure (an abort). `ulimit -v` stands in for a small
+/// machine.
+#[test]
+#[cfg(target_os = "linux")]
+fn an_image_too_large_for_memory_is_refused_up_front() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    let out = scratch("too_large.png");
+    let limited = |args: &[&str]| {
+        Command::new("sh")
+            .arg("-c")
+            .arg("ulimit -v 1000000 && exec \"$0\" \"$@\"")
+            .arg(env!("CARGO_BIN_EXE_wavepath"))
+            .args(args)
+            .output()
+            .expect("run wavepath under sh")
+    };
+    // 64 M pixels: 6 GiB of film, against under 1 GB of address space.
+    let o = limited(&[
+        "-q",
+        "-r",
+        "8000",
+        "8000",
+        "-f",
+        out.to_str().unwrap(),
+        scene,
+    ]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.starts_with(
+            "error: -r 8000 8000: its film alone needs 5.7 GiB (96 bytes per pixel), and "
+        ),
+        "{err}"
+    );
+    assert!(err.contains("GiB of memory is available"), "{err}");
+    assert!(!out.exists());
+    // A small cell of the same image fits, and renders.
+    let o = limited(&[
+        "-q",
+        "-r",
+        "8000",
+        "8000",
+        "-p",
+        "0",
+        "0",
+        "64",
+        "48",
+        "-f",
+        out.to_str().unwrap(),
+        scene,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 #[test]
 fn a_missing_scene_is_one_line_and_exit_1() {
     let o = wavepath(&["-q", "no/such/scene.dae"]);

@@ -17,6 +17,7 @@ macro_rules! say {
 mod args;
 pub mod compare;
 pub mod converge;
+mod memory;
 pub mod mitsuba;
 mod plot;
 mod report;
@@ -158,6 +159,13 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
         },
         region,
     };
+    if let Some(why) = memory::film_does_not_fit(settings.area().pixel_count() as u64) {
+        let (w, h) = (settings.width, settings.height);
+        match region {
+            Some(_) => fail(format!("-r {w} {h} with -p: for the cell, {why}")),
+            None => fail(format!("-r {w} {h}: {why}")),
+        }
+    }
     (settings, output)
 }
 
