@@ -349,6 +349,16 @@ fn converge_refuses_a_reference_of_another_image() {
     let o = measure(&["-m", "2", "-c", "moved_again.txt"], SCENE);
     assert!(o.status.success(), "{}", text(&o.stderr));
 
+    // The focal distance counts only with a lens.
+    make_with(&["-b", "0.1", "-d", "3"], SCENE);
+    let o = measure(&["-m", "2", "-b", "0.1", "-d", "4"], SCENE);
+    assert_refused(&o, "ref.exr");
+    let err = text(&o.stderr);
+    assert!(err.contains("-d 3 where these renders use -d 4"), "{err}");
+    make_with(&[], SCENE);
+    let o = measure(&["-m", "2", "-d", "2"], SCENE);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+
     // With a point light, -H is another image: it misses that light.
     make_with(&[], point_light);
     let o = measure(&["-m", "2", "-l", "2"], point_light);
@@ -357,6 +367,13 @@ fn converge_refuses_a_reference_of_another_image() {
     assert_refused(&o, "ref.exr");
     let err = text(&o.stderr);
     assert!(err.contains("which -H leaves out here"), "{err}");
+    // And it says why, before anything else.
+    assert!(
+        err.starts_with(
+            "warning: hemisphere estimator: uniform hemisphere sampling (-H) never finds"
+        ),
+        "{err}"
+    );
     make_with(&["-H"], point_light);
     let o = measure(&["-m", "2"], point_light);
     assert_refused(&o, "ref.exr");

@@ -180,7 +180,7 @@ pub(crate) fn reference_noise(path: &Path, reference: &Image) -> Result<Option<(
     let recorded = reference_note(path)?
         .and_then(|pairs| pairs.into_iter().find(|(n, _)| n == OWN_REL_MSE))
         .and_then(|(_, v)| v.parse::<f64>().ok())
-        .filter(|v| v.is_finite() && *v >= 0.0);
+        .filter(|v| (0.0..f64::INFINITY).contains(v));
     if let Some(v) = recorded {
         return Ok(Some((v, "measured from its independent replicates".into())));
     }
@@ -842,7 +842,42 @@ fn plot_csv_files(args: &ConvergeArgs) -> Result<i32> {
 
 #[cfg(test)]
 mod tests {
-    use super::time_to_reach;
+    use super::*;
+
+    /// A recorded own relMSE is used when it is a number a relMSE can be;
+    /// otherwise the per-pixel standard errors speak, or nothing does.
+    #[test]
+    fn a_references_noise_comes_from_its_record_if_sound() {
+        let dir = crate::cli::scratch_dir("reference-noise");
+        let mut image = Image::new(2, 1);
+        image.pixels = vec![glam::Vec3::ONE; 2];
+        let path = dir.join("ref.exr");
+        let mut noise = |record: Option<&str>, variance: f32| {
+            image.variance = vec![glam::Vec3::splat(variance); 2];
+            let notes: Vec<(String, String)> = record
+                .map(|r| {
+                    (
+                        REFERENCE_NOTE.to_string(),
+                        format!("-m=1;{OWN_REL_MSE}={r}"),
+                    )
+                })
+                .into_iter()
+                .collect();
+            output::write_exr_with_error(&image, &path, &notes).unwrap();
+            let read = output::read_image(&path).unwrap();
+            reference_noise(&path, &read).unwrap()
+        };
+        let from_record = noise(Some("2.5e-4"), 0.0).unwrap();
+        assert_eq!(from_record.0, 2.5e-4);
+        assert!(from_record.1.contains("replicates"), "{from_record:?}");
+        for unsound in ["nan", "-1e-4", "inf", "x"] {
+            let (v, how) = noise(Some(unsound), 0.01).unwrap();
+            assert!(how.contains("standard-error channels"), "{unsound}: {how}");
+            assert!((v - 0.01 / 1.01).abs() < 1e-6, "{unsound}: {v}");
+        }
+        assert_eq!(noise(None, 0.0), None);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     #[test]
     fn time_to_reach_interpolates_in_log_log() {

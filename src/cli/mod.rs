@@ -91,7 +91,9 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
                 args.adaptive[1]
             ));
         }
-        // Tolerance 0 can never be met: that is fixed sampling.
+        // Tolerance 0 means fixed sampling, as the README documents
+        // (`-a N 0`); by the rule's letter only pixels of zero variance,
+        // such as a black background, would stop early.
         (tol > 0.0).then_some(Adaptive {
             samples_per_batch: spb,
             tolerance: tol,

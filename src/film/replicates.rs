@@ -54,8 +54,9 @@ pub fn combine(replicates: &[Image]) -> Combined {
     );
     let k = replicates.len() as f32;
     let mut image = Image::new(first.width, first.height);
-    // The spread of the replicates' means, as the variance of their mean.
-    let mut spread = Image::new(first.width, first.height);
+    // The spread of the replicates' means, as the variance of their mean
+    // (two replicates at least).
+    let mut spread = (replicates.len() > 1).then(|| Image::new(first.width, first.height));
     for i in 0..image.pixels.len() {
         let mean = replicates.iter().map(|r| r.pixels[i]).sum::<Vec3>() / k;
         let n = replicates.iter().map(|r| r.samples[i]).sum::<u32>();
@@ -83,12 +84,12 @@ pub fn combine(replicates: &[Image]) -> Combined {
         } else {
             Vec3::ZERO
         };
-        spread.pixels[i] = mean;
-        if replicates.len() > 1 {
+        if let Some(spread) = spread.as_mut() {
+            spread.pixels[i] = mean;
             spread.variance[i] = between / (k * (k - 1.0));
         }
     }
-    let rel_mse = (replicates.len() > 1).then(|| metrics::rel_mse_from_variance(&spread));
+    let rel_mse = spread.as_ref().map(metrics::rel_mse_from_variance);
     Combined { image, rel_mse }
 }
 
@@ -125,6 +126,9 @@ mod tests {
             assert_eq!(c.image.samples[0], 12);
             assert_eq!(c.rel_mse.is_some(), k > 1);
         }
+        // One sample in all has no variance (not 0/0).
+        let one = combine(&[pixel_of(&[0.5])]);
+        assert_eq!(one.image.variance[0], Vec3::ZERO);
     }
 
     #[test]
