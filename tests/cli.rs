@@ -306,6 +306,31 @@ fn outputs_that_cannot_be_written_are_refused_before_rendering() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
 
+    // A file that may not be written (where permissions bind: root
+    // writes through them).
+    let read_only = scratch("read-only.png");
+    std::fs::write(&read_only, b"kept").unwrap();
+    let mut permissions = std::fs::metadata(&read_only).unwrap().permissions();
+    permissions.set_readonly(true);
+    std::fs::set_permissions(&read_only, permissions).unwrap();
+    if std::fs::OpenOptions::new()
+        .write(true)
+        .open(&read_only)
+        .is_ok()
+    {
+        println!("skipped the read-only file: this user writes through permissions");
+    } else {
+        let o = wavepath(&["-f", read_only.to_str().unwrap(), scene]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        let says = format!("error: -f {}: cannot write there", read_only.display());
+        assert!(stderr(&o).starts_with(&says), "{}", stderr(&o));
+        assert_eq!(std::fs::read(&read_only).unwrap(), b"kept");
+    }
+    let mut permissions = std::fs::metadata(&read_only).unwrap().permissions();
+    #[allow(clippy::permissions_set_readonly_false)]
+    permissions.set_readonly(false);
+    std::fs::set_permissions(&read_only, permissions).unwrap();
+
     // A link to a file not made yet is written through, as before the check.
     #[cfg(unix)]
     {
@@ -1156,7 +1181,7 @@ fn the_closing_report_says_what_was_written_unless_quiet() {
     // Adaptive: how many pixels stopped before -s, as the EXR counts them.
     let exr = scratch("report.exr");
     let _ = scratch("report_rate.png");
-    let args = ["-s", "64", "-a", "16", "0.1", "-r", "20", "10"];
+    let args = ["-s", "64", "-a", "16", "0.1", "-r", "20", "10", "-t", "2"];
     let o = render_to(scene, &exr, &args);
     assert!(o.status.success(), "{}", stderr(&o));
     let samples = read_image(&exr).unwrap().samples;
@@ -1171,4 +1196,5 @@ fn the_closing_report_says_what_was_written_unless_quiet() {
         exr.display()
     );
     assert!(stderr(&o).contains(&wrote), "{}", stderr(&o));
+    assert!(stderr(&o).contains("on 2 threads |"), "{}", stderr(&o));
 }
