@@ -238,7 +238,7 @@ fn scene_file_digest(args: &Args) -> Result<u64> {
 /// (`-H` misses them). The seed, `-l` and roulette change only the noise,
 /// and so does the estimator where the scene has no such lights, so a
 /// reference may differ in those. Each entry is (setting, value);
-/// `--make-reference` records them in the EXR ([`EXPECTATION_NOTE`]), and
+/// `--make-reference` records them in the EXR ([`REFERENCE_NOTE`]), and
 /// a reference that recorded other values is refused: error measured
 /// against another image means nothing.
 fn expectation(
@@ -290,9 +290,9 @@ fn digest(bytes: &[u8]) -> u64 {
 }
 
 /// Refuses a reference whose header records another [`expectation`] than
-/// `ours`. One that records none (from another program) is taken on
-/// trust, with a warning.
-fn check_expectation(path: &Path, ours: &[(&str, String)]) -> Result<()> {
+/// one of `ours` (one per estimator measured). One that records none (from
+/// another program) is taken on trust, with a warning.
+fn check_expectation(path: &Path, ours: &[Vec<(&str, String)>]) -> Result<()> {
     let Some(theirs) = reference_note(path)? else {
         eprintln!(
             "warning: {} records no settings (it was not made by converge --make-reference): \
@@ -301,6 +301,14 @@ fn check_expectation(path: &Path, ours: &[(&str, String)]) -> Result<()> {
         );
         return Ok(());
     };
+    for ours in ours {
+        check_pairs(path, &theirs, ours)?;
+    }
+    Ok(())
+}
+
+/// [`check_expectation`] for one estimator's pairs.
+fn check_pairs(path: &Path, theirs: &[(String, String)], ours: &[(&str, String)]) -> Result<()> {
     let differences: Vec<String> = ours
         .iter()
         .filter_map(|(name, value)| {
@@ -533,9 +541,8 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         None
     } else {
         let reference = load_reference(&reference_path, &settings)?;
-        for &estimator in &estimators {
-            check_expectation(&reference_path, &expected(estimator))?;
-        }
+        let ours: Vec<_> = estimators.iter().map(|&e| expected(e)).collect();
+        check_expectation(&reference_path, &ours)?;
         Some(reference)
     };
 

@@ -7,7 +7,7 @@
 //! one place and one definition each, so they agree.
 //!
 //! All metrics are per channel (R, G, B) and overall (the mean over the
-//! three channels, or for [`Metrics::max_error`] the maximum), accumulated
+//! three channels, or for [`ChannelMetrics::max_error`] the maximum), accumulated
 //! in `f64`. The second image is always the reference.
 //!
 //! - RMSE: √(mean (x − r)²).
