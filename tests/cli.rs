@@ -418,7 +418,8 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
             .output()
             .expect("run wavepath under sh")
     };
-    // 64 M pixels: 6 GiB of film, against under 1 GB of address space.
+    // 64 M pixels: 1.8 GiB of image and PNG buffer, against under 1 GB
+    // of address space.
     let o = limited(&[
         "-q",
         "-r",
@@ -432,15 +433,19 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
         err.starts_with(
-            "error: -r 8000 8000: its film alone needs 5.7 GiB (96 bytes per pixel), and "
+            "error: -r 8000 8000: the image and its PNG encoding alone need 1.8 GiB \
+             (31 bytes per pixel), and "
         ),
         "{err}"
     );
     assert!(err.contains("GiB of memory is available"), "{err}");
     assert!(!out.exists());
-    // A small cell of the same image fits, and renders.
+    // A small cell of the same image fits, and renders (on two threads,
+    // whatever the machine: each thread's stack takes address space).
     let o = limited(&[
         "-q",
+        "-t",
+        "2",
         "-r",
         "8000",
         "8000",

@@ -439,9 +439,9 @@ fn a_references_own_error_is_what_two_references_differ_by() {
         .and_then(|l| l.split_whitespace().nth(2))
         .and_then(|v| v.parse().ok())
         .expect(&report);
-    // The estimates average ~5,000 pixels' spreads of eight means, and the
-    // difference ~5,000 pixels' squares: each within a few per cent; ±25%
-    // is many standard deviations, and the old estimate was off by 3–10×.
+    // The estimates average 5,184 values' spreads of eight means, and the
+    // difference 5,184 squares: each within a few per cent; ±25% is many
+    // standard deviations, and the old estimate was off by 3–10×.
     let ratio = between / (own[0] + own[1]);
     assert!(
         (0.8..1.25).contains(&ratio),
@@ -451,6 +451,38 @@ fn a_references_own_error_is_what_two_references_differ_by() {
         report.contains("measured from its independent replicates"),
         "{report}"
     );
+}
+
+/// A reference of few samples estimates the same image as one of many:
+/// each replicate takes at least two samples a pixel, spread over the
+/// pixel (one sample would take the pixel's centre, another image).
+#[test]
+fn a_reference_of_few_samples_estimates_the_same_image() {
+    let dir = scratch("converge_few_samples");
+    for (spp, seed, name) in [("8", "0", "few.exr"), ("256", "1", "many.exr")] {
+        converge(
+            &dir,
+            &[
+                "-q",
+                "--make-reference",
+                "-s",
+                spp,
+                "-m",
+                "2",
+                "-r",
+                "48",
+                "36",
+                "--seed",
+                seed,
+                "--ref",
+                name,
+            ],
+        );
+    }
+    let o = wavepath_in(&dir, &["compare", "few.exr", "many.exr"]);
+    let report = text(&o.stdout);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(report.contains(": consistent"), "{report}");
 }
 
 #[test]
@@ -971,7 +1003,7 @@ fn converge_reports_each_estimator_against_the_references_noise() {
     );
     assert!(err.contains("rendering the reference: "), "{err}");
     let floor: f64 = out
-        .split("its own relMSE, measured from 4 independent replicates: ")
+        .split("its own relMSE, measured from 2 independent replicates: ")
         .nth(1)
         .and_then(|v| v.trim().parse().ok())
         .expect(&out);

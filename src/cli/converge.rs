@@ -105,8 +105,9 @@ pub struct ConvergeArgs {
     #[arg(long = "plot-csv", value_name = "CSV", value_delimiter = ',')]
     pub plot_csv: Vec<PathBuf>,
 
-    /// Render the reference (-s spp, seed --seed + 1000003) with per-pixel
-    /// standard-error channels, and stop
+    /// Render the reference (-s spp as up to 8 replicates with seeds from
+    /// --seed + 1000003, their spread measuring its own error) with
+    /// per-pixel standard-error channels, and stop
     #[arg(long = "make-reference")]
     pub make_reference: bool,
 
@@ -579,7 +580,10 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         }
         // Independent replicates, each with its own seeds (spaced so that
         // references made with neighbouring --seed values share none).
-        let parts = settings.spp.min(REFERENCE_REPLICATES);
+        // At least two samples a replicate: a render of one sample per
+        // pixel takes the pixel's centre (as the CS184 renderer does), which
+        // would estimate another image than the pixel's average.
+        let parts = (settings.spp / 2).clamp(1, REFERENCE_REPLICATES);
         let seed = settings.seed;
         settings.spp = settings.spp.div_ceil(parts);
         let mut replicates = Vec::new();
@@ -595,6 +599,14 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
             replicates.push(out.image);
         }
         let combined = replicates::combine(&replicates);
+        let bad = combined.image.non_finite_count();
+        if bad > 0 {
+            bail!(
+                "the reference has {bad} NaN or infinite pixels (radiance beyond f32's range?); \
+                 not written to {}",
+                reference_path.display()
+            );
+        }
         let own = combined
             .rel_mse
             .unwrap_or_else(|| metrics::rel_mse_from_variance(&combined.image));

@@ -1,29 +1,35 @@
-//! Whether a render's film fits in memory, found out before anything is
+//! Whether a render's image fits in memory, found out before anything is
 //! loaded: an image too large for the machine would otherwise end in an
 //! allocation failure (an abort, not an error message) or the kernel's
-//! out-of-memory killer, after the scene had loaded.
+//! out-of-memory killer, after the scene had loaded and rendered.
 //!
-//! Only the film is counted: it is what grows with `-r`, and it is exact
-//! (the per-pixel sums of every tile, then the finished image they are
-//! stored into). The scene, BVH and output encoding come on top, so a
+//! Only what grows with `-r` is counted, exactly: the finished image (the
+//! renderer stores each tile into it as soon as the tile is done, so the
+//! tiles' own sums are only those in flight) and the buffer its file is
+//! encoded from. The scene, BVH, threads and allocator come on top, so a
 //! render that passes may still not fit; one that fails certainly would
 //! not. The memory available is read from Linux's /proc (what the kernel
 //! could give without swapping anything else out, plus free swap, and the
 //! process's address-space limit, `ulimit -v`); elsewhere nothing is
 //! checked.
 
-/// Bytes of film per rendered pixel at its peak: every tile's sums (f64
-/// radiance and its square, f64 illuminance and its square, a u32 count)
-/// alive while they are stored into the image (f32 mean and variance, a
-/// u32 count).
-pub const FILM_BYTES_PER_PIXEL: u64 = {
+use crate::film::output::Format;
+
+/// Bytes of image per rendered pixel: f32 RGB mean and variance and a u32
+/// sample count ([`crate::film::Image`]).
+pub const IMAGE_BYTES_PER_PIXEL: u64 = {
     use std::mem::size_of;
-    (2 * size_of::<glam::DVec3>()
-        + 2 * size_of::<f64>()
-        + size_of::<u32>()
-        + 2 * size_of::<glam::Vec3>()
-        + size_of::<u32>()) as u64
+    (2 * size_of::<glam::Vec3>() + size_of::<u32>()) as u64
 };
+
+/// Bytes per pixel of the buffer an image file is encoded from: 8-bit
+/// RGB for a PNG; f32 R, G, B and the sample count for an EXR.
+pub fn encoding_bytes_per_pixel(format: Format) -> u64 {
+    match format {
+        Format::Png => 3,
+        Format::Exr => 4 * std::mem::size_of::<f32>() as u64,
+    }
+}
 
 /// The bytes this process may still allocate, as far as Linux says:
 /// `MemAvailable` + `SwapFree` from `meminfo`, capped by the soft address
@@ -53,26 +59,33 @@ pub fn available(meminfo: &str, limits: &str, status: &str) -> Option<u64> {
     })
 }
 
-/// The refusal for a film of `pixels` pixels that cannot fit, or None
-/// (also when the machine does not say what is available).
-pub fn film_does_not_fit(pixels: u64) -> Option<String> {
+/// The refusal for an image of `pixels` pixels written as `format` that
+/// cannot fit, or None (also when the machine does not say what is
+/// available).
+pub fn image_does_not_fit(pixels: u64, format: Format) -> Option<String> {
     let read = |path: &str| std::fs::read_to_string(path).unwrap_or_default();
     let free = available(
         &read("/proc/meminfo"),
         &read("/proc/self/limits"),
         &read("/proc/self/status"),
     )?;
-    refusal(pixels, free)
+    refusal(pixels, format, free)
 }
 
-/// The message when the film of `pixels` pixels needs more than `free` bytes.
-fn refusal(pixels: u64, free: u64) -> Option<String> {
-    let need = pixels * FILM_BYTES_PER_PIXEL;
+/// The message when the image of `pixels` pixels, written as `format`,
+/// needs more than `free` bytes.
+fn refusal(pixels: u64, format: Format, free: u64) -> Option<String> {
+    let per_pixel = IMAGE_BYTES_PER_PIXEL + encoding_bytes_per_pixel(format);
+    let need = pixels * per_pixel;
     let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+    let name = match format {
+        Format::Png => "PNG",
+        Format::Exr => "EXR",
+    };
     (need > free).then(|| {
         format!(
-            "its film alone needs {:.1} GiB ({FILM_BYTES_PER_PIXEL} bytes per pixel), \
-             and {:.1} GiB of memory is available",
+            "the image and its {name} encoding alone need {:.1} GiB ({per_pixel} bytes per \
+             pixel), and {:.1} GiB of memory is available",
             gib(need),
             gib(free)
         )
@@ -110,15 +123,21 @@ mod tests {
     }
 
     #[test]
-    fn a_film_that_does_not_fit_is_refused_with_both_sizes() {
-        assert_eq!(FILM_BYTES_PER_PIXEL, 96);
+    fn an_image_that_does_not_fit_is_refused_with_both_sizes() {
+        assert_eq!(IMAGE_BYTES_PER_PIXEL, 28);
         let pixels = 16000 * 16000;
-        let e = refusal(pixels, 4 << 30).unwrap();
+        let e = refusal(pixels, Format::Exr, 4 << 30).unwrap();
         assert_eq!(
             e,
-            "its film alone needs 22.9 GiB (96 bytes per pixel), and 4.0 GiB of memory is available"
+            "the image and its EXR encoding alone need 10.5 GiB (44 bytes per pixel), \
+             and 4.0 GiB of memory is available"
         );
-        assert_eq!(refusal(pixels, pixels * 96), None);
-        assert!(refusal(pixels, pixels * 96 - 1).is_some());
+        let png = refusal(pixels, Format::Png, 4 << 30).unwrap();
+        assert!(
+            png.contains("PNG encoding alone need 7.4 GiB (31 bytes"),
+            "{png}"
+        );
+        assert_eq!(refusal(pixels, Format::Png, pixels * 31), None);
+        assert!(refusal(pixels, Format::Png, pixels * 31 - 1).is_some());
     }
 }

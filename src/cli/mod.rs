@@ -161,7 +161,8 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
         },
         region,
     };
-    if let Some(why) = memory::film_does_not_fit(settings.area().pixel_count() as u64) {
+    let format = output::Format::from_path(&output).unwrap_or(output::Format::Png);
+    if let Some(why) = memory::image_does_not_fit(settings.area().pixel_count() as u64, format) {
         let (w, h) = (settings.width, settings.height);
         match region {
             Some(_) => fail(format!("-r {w} {h} with -p: for the cell, {why}")),

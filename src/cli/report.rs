@@ -163,9 +163,10 @@ impl ProgressLines {
         } else {
             format!("about {:.0} s left", secs * (1.0 - fraction) / fraction)
         };
+        // Rounded down: "100%" only once all is done (and then no line).
         Some(format!(
-            "progress: {:.0}% of pixels done, {secs:.0} s elapsed, {left}",
-            100.0 * fraction
+            "progress: {}% of pixels done, {secs:.0} s elapsed, {left}",
+            (100.0 * fraction).floor()
         ))
     }
 }
@@ -195,8 +196,12 @@ mod tests {
             lines.advance(150, s(20)).as_deref(),
             Some("progress: 50% of pixels done, 20 s elapsed, about 20 s left")
         );
-        // All done: the closing report says the rest.
-        assert_eq!(lines.advance(500, s(40)), None);
+        // 99.9% is not called 100%; all done, the closing report says the rest.
+        assert_eq!(
+            lines.advance(499, s(30)).as_deref(),
+            Some("progress: 99% of pixels done, 30 s elapsed, about 0 s left")
+        );
+        assert_eq!(lines.advance(1, s(40)), None);
         // Before any pixel is done, no time left is guessed.
         let stuck = ProgressLines::new(1000, s(10));
         assert_eq!(

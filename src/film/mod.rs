@@ -12,8 +12,8 @@ pub mod replicates;
 use glam::{DVec3, Vec3};
 
 /// The most pixels an image may have, rendered or read: 2^28 (16384²),
-/// whose film alone takes 24 GiB (the CLI also checks what a render's
-/// film needs against the memory available).
+/// whose [`Image`] alone takes 7 GiB (the CLI also checks what a render's
+/// image needs against the memory available).
 pub const MAX_PIXELS: u64 = 1 << 28;
 
 /// A rectangle of pixels, in image coordinates (row 0 at the top).

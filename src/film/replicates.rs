@@ -43,7 +43,8 @@ pub struct Combined {
 /// with the same number of samples per pixel.
 ///
 /// # Panics
-/// If `replicates` is empty or the images differ in size.
+/// If `replicates` is empty, or the images differ in size or in a pixel's
+/// sample count.
 pub fn combine(replicates: &[Image]) -> Combined {
     let first = &replicates[0];
     assert!(
@@ -51,6 +52,13 @@ pub fn combine(replicates: &[Image]) -> Combined {
             .iter()
             .all(|r| (r.width, r.height) == (first.width, first.height)),
         "replicates of one image have one size"
+    );
+    // Equal counts make the replicates identically distributed and the
+    // pooled formula below exact (converge renders them without adaptive
+    // sampling and keeps only complete ones).
+    assert!(
+        replicates.iter().all(|r| r.samples == first.samples),
+        "replicates take equal samples in every pixel"
     );
     let k = replicates.len() as f32;
     let mut image = Image::new(first.width, first.height);
@@ -63,7 +71,10 @@ pub fn combine(replicates: &[Image]) -> Combined {
         // Σ (mₖ − m̄)²: between replicates.
         let between = replicates
             .iter()
-            .map(|r| (r.pixels[i] - mean).powf(2.0))
+            .map(|r| {
+                let d = r.pixels[i] - mean;
+                d * d
+            })
             .sum::<Vec3>();
         // Σ (nₖ − 1) sₖ², with sₖ² = nₖ · (the variance of replicate k's
         // mean): within replicates.

@@ -19,6 +19,7 @@ pub mod shadow;
 pub mod stats;
 pub mod surface;
 
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
@@ -161,22 +162,26 @@ impl<'a> Renderer<'a> {
         // value; the image holds the region only.
         let area = settings.area();
         let tiles = area.split(settings.tile_size);
-        let results: Vec<(TileFilm, Stats, bool)> = tiles
+        // Each tile is stored into the image as soon as it is done, so only
+        // the tiles in flight hold their f64 sums: kept for the whole image
+        // until the end, they took 68 bytes per pixel more than the image's
+        // 28. One lock per tile (not per ray); a store writes only its own
+        // pixels and the counters add up exactly, so the order in which
+        // tiles finish changes nothing.
+        let totals = Mutex::new((Image::new(area.width, area.height), Stats::default(), true));
+        tiles
             .par_iter()
-            .map_init(Scratch::default, |scratch, &tile| {
-                let out = self.render_tile(settings, tile, cancel, scratch);
+            .for_each_init(Scratch::default, |scratch, &tile| {
+                let (film, s, done) = self.render_tile(settings, tile, cancel, scratch);
+                {
+                    let mut totals = totals.lock().unwrap_or_else(|e| e.into_inner());
+                    totals.0.store(&film, area);
+                    totals.1 += s;
+                    totals.2 &= done;
+                }
                 on_tile(tile.pixel_count() as u64);
-                out
-            })
-            .collect();
-        let mut image = Image::new(area.width, area.height);
-        let mut stats = Stats::default();
-        let mut complete = true;
-        for (film, s, done) in &results {
-            image.store(film, area);
-            stats += *s;
-            complete &= *done;
-        }
+            });
+        let (mut image, stats, complete) = totals.into_inner().unwrap_or_else(|e| e.into_inner());
         if settings.integrator.view == View::BvhCost {
             // The film holds the mean traversal steps per pixel: map to a
             // heat scale (whose top is the image's, or the region's, most).
