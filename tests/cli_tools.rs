@@ -873,6 +873,10 @@ fn converge_refuses_bad_budgets_and_targets() {
         &["--make-reference", "--estimators", "hemisphere,light"],
         "--make-reference renders one estimator",
     );
+    refused(
+        &["--make-reference", "-s", "1"],
+        "--make-reference -s 1: a reference takes at least 2 samples per pixel",
+    );
     // Render flags that mean nothing here are refused, not ignored, and
     // outputs that cannot be written are found before anything renders.
     for (flags, says) in [
@@ -1012,7 +1016,7 @@ fn converge_reports_each_estimator_against_the_references_noise() {
         &dir,
         &[
             &base[..],
-            &["-q", "--make-reference", "-s", "1", "--ref", "quiet.exr"],
+            &["-q", "--make-reference", "-s", "2", "--ref", "quiet.exr"],
         ]
         .concat(),
     );

@@ -451,6 +451,13 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     if let Some((_, why)) = NOT_USED.iter().find(|(id, _)| from_command_line(id)) {
         bail!("{why}");
     }
+    if args.make_reference && args.render.spp < 2 {
+        bail!(
+            "--make-reference -s {}: a reference takes at least 2 samples per pixel (one \
+             sample takes each pixel's centre, and has no spread to measure its error by)",
+            args.render.spp
+        );
+    }
     if from_command_line("spp") && !args.make_reference {
         bail!(
             "converge: -s sets the reference's samples per pixel, with --make-reference; \
