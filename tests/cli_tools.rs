@@ -396,6 +396,26 @@ fn converge_refuses_a_reference_of_another_image() {
     );
 }
 
+/// Makes a 48×36, `-m 2` reference of the Cornell box in `dir`; returns
+/// what converge printed.
+fn small_reference(dir: &Path, spp: &str, seed: &str, name: &str) -> String {
+    let args = [
+        "--make-reference",
+        "-s",
+        spp,
+        "-m",
+        "2",
+        "-r",
+        "48",
+        "36",
+        "--seed",
+        seed,
+        "--ref",
+        name,
+    ];
+    converge(dir, &args).0
+}
+
 /// A reference's own relMSE, measured from its replicates, is what two
 /// independent references actually differ by: the relMSE between them is
 /// the sum of their own, in expectation. (The s²/n of each pixel's
@@ -406,24 +426,7 @@ fn a_references_own_error_is_what_two_references_differ_by() {
     let own: Vec<f64> = ["0", "1"]
         .iter()
         .map(|seed| {
-            let name = format!("ref{seed}.exr");
-            let (out, _) = converge(
-                &dir,
-                &[
-                    "--make-reference",
-                    "-s",
-                    "256",
-                    "-m",
-                    "2",
-                    "-r",
-                    "48",
-                    "36",
-                    "--seed",
-                    seed,
-                    "--ref",
-                    &name,
-                ],
-            );
+            let out = small_reference(&dir, "256", seed, &format!("ref{seed}.exr"));
             out.split("measured from 8 independent replicates: ")
                 .nth(1)
                 .and_then(|v| v.trim().parse().ok())
@@ -460,24 +463,7 @@ fn a_references_own_error_is_what_two_references_differ_by() {
 fn a_reference_of_few_samples_estimates_the_same_image() {
     let dir = scratch("converge_few_samples");
     for (spp, seed, name) in [("8", "0", "few.exr"), ("256", "1", "many.exr")] {
-        converge(
-            &dir,
-            &[
-                "-q",
-                "--make-reference",
-                "-s",
-                spp,
-                "-m",
-                "2",
-                "-r",
-                "48",
-                "36",
-                "--seed",
-                seed,
-                "--ref",
-                name,
-            ],
-        );
+        small_reference(&dir, spp, seed, name);
     }
     let o = wavepath_in(&dir, &["compare", "few.exr", "many.exr"]);
     let report = text(&o.stdout);
