@@ -176,10 +176,12 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
         );
     }
     let has_error = |im: &Image| im.variance.iter().any(|v| *v != Vec3::ZERO);
-    let exr = |path: &Path| output::Format::from_path(path).ok() == Some(output::Format::Exr);
-    if exr(&args.reference)
-        && let Some((noise, how)) = super::converge::reference_noise(&args.reference, &reference)?
-    {
+    // Only an EXR's header can hold a reference's record.
+    let note = match output::Format::from_path(&args.reference) {
+        Ok(output::Format::Exr) => super::converge::reference_note(&args.reference)?,
+        _ => None,
+    };
+    if let Some((noise, how)) = super::converge::reference_noise(note.as_ref(), &reference) {
         say!("reference noise: its own relMSE is about {noise:.3e} ({how})");
     }
     if has_error(&image) && has_error(&reference) {

@@ -158,9 +158,12 @@ const OWN_REL_MSE: &str = "own-relMSE";
 /// it has fewer samples per pixel), so that its own error can be measured.
 pub const REFERENCE_REPLICATES: u32 = 8;
 
-/// The pairs of a reference's [`REFERENCE_NOTE`]; `None` for an EXR that
-/// has none (not made by `converge --make-reference`).
-pub(crate) fn reference_note(path: &Path) -> Result<Option<Vec<(String, String)>>> {
+/// The `name=value` pairs of a reference's [`REFERENCE_NOTE`].
+pub(crate) type Note = Vec<(String, String)>;
+
+/// A reference's [`Note`]; `None` for an EXR that has none (not made by
+/// `converge --make-reference`).
+pub(crate) fn reference_note(path: &Path) -> Result<Option<Note>> {
     let notes = output::read_exr_notes(path)?;
     Ok(notes
         .into_iter()
@@ -174,32 +177,32 @@ pub(crate) fn reference_note(path: &Path) -> Result<Option<Vec<(String, String)>
 }
 
 /// A reference's own relMSE and where it comes from: the figure its
-/// replicates measured, where it records one, else the one its per-pixel
-/// standard errors give (an overestimate for stratified samples), else
-/// `None`.
-pub(crate) fn reference_noise(path: &Path, reference: &Image) -> Result<Option<(f64, String)>> {
-    let recorded = reference_note(path)?
-        .and_then(|pairs| pairs.into_iter().find(|(n, _)| n == OWN_REL_MSE))
+/// replicates measured, where its `note` records one, else the one its
+/// per-pixel standard errors give (an overestimate for stratified
+/// samples), else `None`.
+pub(crate) fn reference_noise(note: Option<&Note>, reference: &Image) -> Option<(f64, String)> {
+    let recorded = note
+        .and_then(|pairs| pairs.iter().find(|(n, _)| n == OWN_REL_MSE))
         .and_then(|(_, v)| v.parse::<f64>().ok())
         .filter(|v| (0.0..f64::INFINITY).contains(v));
     if let Some(v) = recorded {
-        return Ok(Some((v, "measured from its independent replicates".into())));
+        return Some((v, "measured from its independent replicates".into()));
     }
     if reference.variance.iter().all(|v| *v == glam::Vec3::ZERO) {
-        return Ok(None);
+        return None;
     }
-    Ok(Some((
+    Some((
         metrics::rel_mse_from_variance(reference),
         "from its standard-error channels, s²/n per pixel: for stratified samples usually \
          an overestimate"
             .into(),
-    )))
+    ))
 }
 
 /// Reads the reference for renders with `settings`: of their size, and
 /// with finite pixels.
-fn load_reference(path: &Path, settings: &RenderSettings) -> Result<crate::film::Image> {
-    let reference = super::compare::load(path, crate::film::output::ToneCurve::Reference)?;
+fn load_reference(path: &Path, settings: &RenderSettings) -> Result<Image> {
+    let reference = super::compare::load(path, output::ToneCurve::Reference)?;
     if (reference.width, reference.height) != (settings.width, settings.height) {
         bail!(
             "{} is {}x{} but the renders are {}x{} (give -r {} {})",
@@ -290,11 +293,12 @@ fn digest(bytes: &[u8]) -> u64 {
     })
 }
 
-/// Refuses a reference whose header records another [`expectation`] than
-/// one of `ours` (one per estimator measured). One that records none (from
-/// another program) is taken on trust, with a warning.
-fn check_expectation(path: &Path, ours: &[Vec<(&str, String)>]) -> Result<()> {
-    let Some(theirs) = reference_note(path)? else {
+/// Refuses a reference (at `path`, with `note`) that records another
+/// [`expectation`] than one of `ours` (one per estimator measured). One
+/// that records none (from another program) is taken on trust, with a
+/// warning.
+fn check_expectation(path: &Path, note: Option<&Note>, ours: &[Vec<(&str, String)>]) -> Result<()> {
+    let Some(theirs) = note else {
         eprintln!(
             "warning: {} records no settings (it was not made by converge --make-reference): \
              taken on trust to show the image these renders estimate",
@@ -303,7 +307,7 @@ fn check_expectation(path: &Path, ours: &[Vec<(&str, String)>]) -> Result<()> {
         return Ok(());
     };
     for ours in ours {
-        check_pairs(path, &theirs, ours)?;
+        check_pairs(path, theirs, ours)?;
     }
     Ok(())
 }
@@ -549,9 +553,10 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         None
     } else {
         let reference = load_reference(&reference_path, &settings)?;
+        let note = reference_note(&reference_path)?;
         let ours: Vec<_> = estimators.iter().map(|&e| expected(e)).collect();
-        check_expectation(&reference_path, &ours)?;
-        Some(reference)
+        check_expectation(&reference_path, note.as_ref(), &ours)?;
+        Some((reference, note))
     };
 
     let bvh = pool.install(|| Bvh::build(&scene.geometry, args.render.accel));
@@ -570,7 +575,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         (out, wall, cpu)
     };
 
-    let Some(reference) = reference else {
+    let Some((reference, note)) = reference else {
         let estimator = estimators[0];
         estimator.configure(&mut settings.integrator);
         settings.spp = args.render.spp;
@@ -614,31 +619,31 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
                 reference_path.display()
             );
         }
-        let own = combined
-            .rel_mse
-            .unwrap_or_else(|| metrics::rel_mse_from_variance(&combined.image));
         let mut pairs: Vec<String> = expected(estimator)
             .iter()
             .map(|(n, v)| format!("{n}={v}"))
             .collect();
-        if combined.rel_mse.is_some() {
-            pairs.push(format!("{OWN_REL_MSE}={own:.6e}"));
-        }
+        let (own, how) = match combined.rel_mse {
+            Some(own) => {
+                pairs.push(format!("{OWN_REL_MSE}={own:.6e}"));
+                (own, format!("measured from {parts} independent replicates"))
+            }
+            None => (
+                metrics::rel_mse_from_variance(&combined.image),
+                "estimated from its variance".to_string(),
+            ),
+        };
         let note = (REFERENCE_NOTE.to_string(), pairs.join(";"));
         output::write_exr_with_error(&combined.image, &reference_path, &[note])?;
         say!(
-            "wrote {} ({} spp in {secs:.1} s); its own relMSE, {}: {own:.3e}",
+            "wrote {} ({} spp in {secs:.1} s); its own relMSE, {how}: {own:.3e}",
             reference_path.display(),
-            parts * settings.spp,
-            match combined.rel_mse {
-                Some(_) => format!("measured from {parts} independent replicates"),
-                None => "estimated from its variance".to_string(),
-            }
+            parts * settings.spp
         );
         return Ok(0);
     };
 
-    let floor = match reference_noise(&reference_path, &reference)? {
+    let floor = match reference_noise(note.as_ref(), &reference) {
         Some((floor, how)) => {
             say!(
                 "reference {}: own relMSE about {floor:.3e}, {how} (measured relMSE = true relMSE + this, in expectation)",
@@ -891,7 +896,7 @@ mod tests {
                 .collect();
             output::write_exr_with_error(&image, &path, &notes).unwrap();
             let read = output::read_image(&path).unwrap();
-            reference_noise(&path, &read).unwrap()
+            reference_noise(reference_note(&path).unwrap().as_ref(), &read)
         };
         let from_record = noise(Some("2.5e-4"), 0.0).unwrap();
         assert_eq!(from_record.0, 2.5e-4);

@@ -131,13 +131,12 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
             .unwrap_or("out");
         PathBuf::from(format!("{stem}.png"))
     });
-    match output::Format::from_path(&output) {
-        Err(e) => fail(e.to_string()),
-        Ok(output::Format::Exr) if args.tonemap != output::ToneCurve::Reference => eprintln!(
+    let format = output::Format::from_path(&output).unwrap_or_else(|e| fail(e.to_string()));
+    if format == output::Format::Exr && args.tonemap != output::ToneCurve::Reference {
+        eprintln!(
             "warning: --tonemap applies to PNG images; {} holds linear radiance",
             output.display()
-        ),
-        Ok(_) => {}
+        );
     }
     let settings = RenderSettings {
         width: args.resolution[0],
@@ -161,7 +160,6 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
         },
         region,
     };
-    let format = output::Format::from_path(&output).unwrap_or(output::Format::Png);
     if let Some(why) = memory::image_does_not_fit(settings.area().pixel_count() as u64, format) {
         let (w, h) = (settings.width, settings.height);
         match region {
