@@ -294,7 +294,8 @@ fn outputs_that_cannot_be_written_are_refused_before_rendering() {
         );
         assert!(err.contains("--help"), "{args:?}: {err}");
     }
-    // Without the rate image, the adaptive render's name is fine.
+    // At one sample per pixel sampling is not adaptive and no rate image
+    // is written, so the same name is fine.
     let o = wavepath(&[
         "-q",
         "-r",
