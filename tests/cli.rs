@@ -460,6 +460,30 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
         scene,
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
+    // A reference holds a replicate and the replicates' running sums: 16 M
+    // pixels of them (1.1 GiB) do not fit where the image alone (0.5 GiB)
+    // would.
+    let reference = scratch("too_large_reference.exr");
+    let o = limited(&[
+        "converge",
+        "--make-reference",
+        "-r",
+        "4000",
+        "4000",
+        "--ref",
+        reference.to_str().unwrap(),
+        scene,
+    ]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.starts_with(
+            "error: -r 4000 4000: a replicate and the replicates' running sums alone need \
+             1.1 GiB (72 bytes per pixel), and "
+        ),
+        "{err}"
+    );
+    assert!(!reference.exists());
 }
 
 #[test]

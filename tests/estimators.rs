@@ -11,6 +11,7 @@ use std::f64::consts::PI;
 
 use common::render::*;
 use glam::Vec3;
+use wavepath::film::Image;
 use wavepath::film::adaptive::Adaptive;
 use wavepath::integrator::{Bounces, Settings, View};
 use wavepath::scene::{Light, Material, Scene};
@@ -786,6 +787,36 @@ fn normals_view_shows_the_normal_facing_the_viewer_as_colour() {
             );
         }
     }
+    // Unless the settings say otherwise (converge's renders estimate each
+    // pixel's average): then the one sample is a random point of the
+    // pixel, another for each seed. Half a pixel turns the normal by up
+    // to ~0.02 here.
+    let jittered = |seed| {
+        let one = RenderSettings {
+            spp: 1,
+            centre_single_sample: false,
+            seed,
+            ..s
+        };
+        render(&sphere, &one, 2)
+    };
+    let (a, b) = (jittered(1), jittered(2));
+    let moved = |image: &Image, k: usize| {
+        let (x, row) = (k as u32 % w, k as u32 / w);
+        let d = pixel_ray(&sphere, w, h, x, row).normalize();
+        (image.pixels[k] - 0.5 * (-d + Vec3::ONE))
+            .abs()
+            .max_element()
+            > 1e-4
+    };
+    let n = (w * h) as usize;
+    let off_centre = (0..n).filter(|&k| moved(&a, k)).count();
+    let reseeded = (0..n).filter(|&k| a.pixels[k] != b.pixels[k]).count();
+    assert!(off_centre > n * 9 / 10, "{off_centre} of {n} off centre");
+    assert!(
+        reseeded > n * 9 / 10,
+        "{reseeded} of {n} changed by the seed"
+    );
 }
 
 #[test]

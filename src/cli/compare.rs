@@ -41,7 +41,18 @@ pub struct CompareArgs {
     /// Curve PNG inputs were encoded with (wavepath writes `reference` unless told otherwise)
     #[arg(long = "tonemap", value_enum, default_value_t = ToneCurve::Reference)]
     pub tonemap: ToneCurve,
+    /// Both images come from one estimator and settings (seeds and samples
+    /// may differ): the same-mean test then takes each pixel's per-sample
+    /// variance as the larger of the two files' estimates, so a pixel whose
+    /// few samples saw no spread is not taken as certain
+    #[arg(long = "same-estimator")]
+    pub same_estimator: bool,
 }
+
+/// Below this many samples in a pixel, its own variance estimate is too
+/// unreliable for the per-pixel test without `--same-estimator` (a pixel
+/// beside an edge whose few samples all fell on one side looks certain).
+const FEW_SAMPLES: u32 = 32;
 
 /// Reads an input image with an error that names the file; PNGs are
 /// decoded with the inverse of `curve`.
@@ -186,8 +197,20 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
     }
     if has_error(&image) && has_error(&reference) {
         let alpha = 1e-3;
-        // Not `same_estimator`: the two files may come from different estimators.
-        let t = metrics::z_test(&image, &reference, alpha, false)?;
+        // Sample counts where the files hold them (0: not recorded).
+        let fewest = [&image, &reference]
+            .iter()
+            .flat_map(|im| im.samples.iter().copied())
+            .filter(|&n| n > 0)
+            .min();
+        if let Some(fewest) = fewest.filter(|&n| n < FEW_SAMPLES && !args.same_estimator) {
+            eprintln!(
+                "warning: some pixels hold only {fewest} samples, too few to estimate their \
+                 variance: the per-pixel test may call equal images different; for images of \
+                 one estimator, --same-estimator pools their variances"
+            );
+        }
+        let t = metrics::z_test(&image, &reference, alpha, args.same_estimator)?;
         say!(
             "same-mean test (alpha {alpha} each): max |z| {:.2} at ({}, {}, {}) vs Bonferroni {:.2}; \
              global z {:.2} vs {:.2}: {}",

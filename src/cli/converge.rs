@@ -24,6 +24,7 @@ use clap::parser::ValueSource;
 use clap::{CommandFactory, FromArgMatches, Parser, ValueEnum};
 
 use super::Args;
+use super::memory::{self, IMAGE_BYTES_PER_PIXEL};
 use super::plot::{self, Curve};
 use crate::bvh::Bvh;
 use crate::film::output::{self, Format};
@@ -458,7 +459,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     if args.make_reference && args.render.spp < 2 {
         bail!(
             "--make-reference -s {}: a reference takes at least 2 samples per pixel (one \
-             sample takes each pixel's centre, and has no spread to measure its error by)",
+             sample has no spread to measure its error by)",
             args.render.spp
         );
     }
@@ -508,6 +509,24 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
 
     let (mut settings, _) = super::validate(&args.render);
     settings.adaptive = None;
+    // Every render here estimates each pixel's average, as the reference
+    // does: the 1-spp budget too takes a random point of the pixel, not
+    // its centre (which would measure another image's error).
+    settings.centre_single_sample = false;
+    // Two images at once: a reference's replicate and the replicates'
+    // running sums, or the reference and a render measured against it.
+    let (per_pixel, what) = if args.make_reference {
+        let sums = replicates::BYTES_PER_PIXEL;
+        (
+            IMAGE_BYTES_PER_PIXEL + sums,
+            "a replicate and the replicates' running sums",
+        )
+    } else {
+        (2 * IMAGE_BYTES_PER_PIXEL, "the reference and a render")
+    };
+    if let Some(why) = memory::does_not_fit(settings.area().pixel_count() as u64, per_pixel, what) {
+        bail!("-r {} {}: {why}", settings.width, settings.height);
+    }
     let plot_path = args
         .plot
         .clone()
@@ -592,13 +611,11 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         }
         // Independent replicates, each with its own seeds (spaced so that
         // references made with neighbouring --seed values share none).
-        // At least two samples a replicate: a render of one sample per
-        // pixel takes the pixel's centre (as the CS184 renderer does), which
-        // would estimate another image than the pixel's average.
-        let parts = (settings.spp / 2).clamp(1, REFERENCE_REPLICATES);
+        let parts = settings.spp.min(REFERENCE_REPLICATES);
         let seed = settings.seed;
         settings.spp = settings.spp.div_ceil(parts);
-        let mut replicates = Vec::new();
+        let area = settings.area();
+        let mut replicates = replicates::Replicates::new(area.width, area.height);
         let mut secs = 0.0;
         for k in 0..parts {
             settings.seed = seed.wrapping_add(k.wrapping_mul(0x9e37_79b9));
@@ -608,9 +625,9 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
                 eprintln!("interrupted: no reference written");
                 return Ok(super::EXIT_INTERRUPTED);
             }
-            replicates.push(out.image);
+            replicates.add(&out.image);
         }
-        let combined = replicates::combine(&replicates);
+        let combined = replicates.combine();
         let bad = combined.image.non_finite_count();
         if bad > 0 {
             bail!(

@@ -142,6 +142,7 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
         width: args.resolution[0],
         height: args.resolution[1],
         spp: args.spp,
+        centre_single_sample: true,
         // Views that are not estimates have nothing to converge.
         adaptive: adaptive.filter(|_| args.shading == View::Path && args.spp > 1),
         seed: args.seed,

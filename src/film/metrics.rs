@@ -131,11 +131,20 @@ pub fn max_error(image: &Image, reference: &Image) -> Result<f64, SizeMismatch> 
 /// its noise floor: measured relMSE against it is, in expectation, the true
 /// relMSE plus this.
 pub fn rel_mse_from_variance(image: &Image) -> f64 {
-    let n = 3.0 * image.pixels.len().max(1) as f64;
-    image
-        .pixels
-        .iter()
-        .zip(&image.variance)
+    mean_relative_variance(
+        image
+            .pixels
+            .iter()
+            .copied()
+            .zip(image.variance.iter().copied()),
+    )
+}
+
+/// Mean over pixels and channels of Var / (x² + ε), from each pixel's
+/// (x, Var).
+pub fn mean_relative_variance(pixels: impl ExactSizeIterator<Item = (Vec3, Vec3)>) -> f64 {
+    let n = 3.0 * pixels.len().max(1) as f64;
+    pixels
         .map(|(x, v)| {
             (0..3)
                 .map(|c| v[c] as f64 / ((x[c] as f64).powi(2) + REL_EPSILON))

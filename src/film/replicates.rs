@@ -39,74 +39,119 @@ pub struct Combined {
     pub rel_mse: Option<f64>,
 }
 
-/// Combines renders of one image that differ only in their seed, each
-/// with the same number of samples per pixel.
-///
-/// # Panics
-/// If `replicates` is empty, or the images differ in size or in a pixel's
-/// sample count.
-pub fn combine(replicates: &[Image]) -> Combined {
-    let first = &replicates[0];
-    assert!(
-        replicates
-            .iter()
-            .all(|r| (r.width, r.height) == (first.width, first.height)),
-        "replicates of one image have one size"
-    );
-    // Equal counts make the replicates identically distributed and the
-    // pooled formula below exact (converge renders them without adaptive
-    // sampling and keeps only complete ones).
-    assert!(
-        replicates.iter().all(|r| r.samples == first.samples),
-        "replicates take equal samples in every pixel"
-    );
-    let k = replicates.len() as f32;
-    let mut image = Image::new(first.width, first.height);
-    // The spread of the replicates' means, as the variance of their mean
-    // (two replicates at least).
-    let mut spread = (replicates.len() > 1).then(|| Image::new(first.width, first.height));
-    for i in 0..image.pixels.len() {
-        let mean = replicates.iter().map(|r| r.pixels[i]).sum::<Vec3>() / k;
-        let n = replicates.iter().map(|r| r.samples[i]).sum::<u32>();
-        // Σ (mₖ − m̄)²: between replicates.
-        let between = replicates
-            .iter()
-            .map(|r| {
-                let d = r.pixels[i] - mean;
-                d * d
-            })
-            .sum::<Vec3>();
-        // Σ (nₖ − 1) sₖ², with sₖ² = nₖ · (the variance of replicate k's
-        // mean): within replicates.
-        let within = replicates
-            .iter()
-            .map(|r| {
-                let nk = r.samples[i] as f32;
-                r.variance[i] * nk * (nk - 1.0).max(0.0)
-            })
-            .sum::<Vec3>();
-        // Pooled s² over all N samples is (within + n·between)/(N − 1) when
-        // every replicate has n samples; its mean's variance is that / N.
-        let per = n as f32 / k;
-        image.pixels[i] = mean;
-        image.samples[i] = n;
-        image.variance[i] = if n > 1 {
-            (within + per * between) / ((n as f32 - 1.0) * n as f32)
-        } else {
-            Vec3::ZERO
-        };
-        if let Some(spread) = spread.as_mut() {
-            spread.pixels[i] = mean;
-            spread.variance[i] = between / (k * (k - 1.0));
+/// Running sums over renders of one image that differ only in their seed,
+/// each with the same number of samples per pixel: a replicate is folded
+/// in as soon as it is rendered, so a reference of K replicates holds one
+/// image and these sums, not K images.
+pub struct Replicates {
+    /// `pixels`: the running mean of the replicates' means (Welford);
+    /// `variance`: Σ (nₖ − 1) sₖ², the squares within replicates;
+    /// `samples`: Σ nₖ.
+    sums: Image,
+    /// Σ (mₖ − m̄)², the squares between replicates (Welford's M₂).
+    between: Vec<Vec3>,
+    /// Replicates added.
+    count: u32,
+    /// Each pixel's sample count in every replicate (the first one's).
+    per_replicate: Vec<u32>,
+}
+
+/// Bytes per pixel that [`Replicates`] holds.
+pub const BYTES_PER_PIXEL: u64 = {
+    use std::mem::size_of;
+    (3 * size_of::<Vec3>() + 2 * size_of::<u32>()) as u64
+};
+
+impl Replicates {
+    pub fn new(width: u32, height: u32) -> Self {
+        let sums = Image::new(width, height);
+        let n = sums.pixels.len();
+        Replicates {
+            sums,
+            between: vec![Vec3::ZERO; n],
+            count: 0,
+            per_replicate: Vec::new(),
         }
     }
-    let rel_mse = spread.as_ref().map(metrics::rel_mse_from_variance);
-    Combined { image, rel_mse }
+
+    /// Folds in one more replicate.
+    ///
+    /// # Panics
+    /// If `replicate` differs from the first in size or in a pixel's sample
+    /// count.
+    pub fn add(&mut self, replicate: &Image) {
+        assert!(
+            (replicate.width, replicate.height) == (self.sums.width, self.sums.height),
+            "replicates of one image have one size"
+        );
+        // Equal counts make the replicates identically distributed and the
+        // pooled formula in `combine` exact (converge renders them without
+        // adaptive sampling and keeps only complete ones).
+        if self.count == 0 {
+            self.per_replicate.clone_from(&replicate.samples);
+        }
+        assert!(
+            replicate.samples == self.per_replicate,
+            "replicates take equal samples in every pixel"
+        );
+        self.count += 1;
+        let k = self.count as f32;
+        let sums = &mut self.sums;
+        for i in 0..sums.pixels.len() {
+            // Welford: the mean and Σ (mₖ − m̄)² in one pass.
+            let m = replicate.pixels[i];
+            let delta = m - sums.pixels[i];
+            sums.pixels[i] += delta / k;
+            self.between[i] += delta * (m - sums.pixels[i]);
+            // (nₖ − 1) sₖ², with sₖ² = nₖ · (the variance of replicate k's
+            // mean).
+            let nk = replicate.samples[i] as f32;
+            sums.variance[i] += replicate.variance[i] * nk * (nk - 1.0).max(0.0);
+            sums.samples[i] += replicate.samples[i];
+        }
+    }
+
+    /// The reference the replicates make.
+    ///
+    /// # Panics
+    /// If none was added.
+    pub fn combine(self) -> Combined {
+        assert!(self.count > 0, "a reference of no replicates");
+        let k = self.count as f32;
+        let mut image = self.sums;
+        // The spread of the replicates' means, as the variance of their
+        // mean (two replicates at least).
+        let rel_mse = (self.count > 1).then(|| {
+            let spread = self.between.iter().map(|b| *b / (k * (k - 1.0)));
+            metrics::mean_relative_variance(image.pixels.iter().copied().zip(spread))
+        });
+        for i in 0..image.pixels.len() {
+            // Pooled s² over all N samples is (within + n·between)/(N − 1)
+            // when every replicate has n samples; its mean's variance is
+            // that / N.
+            let n = image.samples[i] as f32;
+            let within = image.variance[i];
+            image.variance[i] = if n > 1.0 {
+                (within + n / k * self.between[i]) / ((n - 1.0) * n)
+            } else {
+                Vec3::ZERO
+            };
+        }
+        Combined { image, rel_mse }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn combine(parts: &[Image]) -> Combined {
+        let mut replicates = Replicates::new(parts[0].width, parts[0].height);
+        for part in parts {
+            replicates.add(part);
+        }
+        replicates.combine()
+    }
 
     /// An image of one pixel holding `samples`, as the film stores them:
     /// their mean and s²/n.

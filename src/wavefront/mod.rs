@@ -49,6 +49,12 @@ pub struct RenderSettings {
     pub height: u32,
     /// Camera samples per pixel (the maximum when adaptive).
     pub spp: u32,
+    /// With one sample per pixel, trace each pixel's centre (the CS184
+    /// renderer's rule, so that a 1-spp render shows what it shows) rather
+    /// than a random point of the pixel. An estimate of the pixel's average
+    /// (`converge`'s renders, whose reference averages over each pixel)
+    /// turns this off.
+    pub centre_single_sample: bool,
     pub adaptive: Option<Adaptive>,
     pub seed: u32,
     /// Paths per wave.
@@ -86,6 +92,7 @@ impl Default for RenderSettings {
             width: 800,
             height: 600,
             spp: 1,
+            centre_single_sample: true,
             adaptive: None,
             seed: 0,
             batch_size: 4096,
@@ -217,7 +224,7 @@ impl<'a> Renderer<'a> {
             camera: &self.scene.camera,
             view,
             seed: settings.seed,
-            pixel_centre: settings.spp == 1,
+            pixel_centre: settings.spp == 1 && settings.centre_single_sample,
             lens_radius: settings.lens_radius,
             focal_distance: settings.focal_distance,
         };
