@@ -53,7 +53,11 @@ pub fn error_vs_time(
         (y0, y1) = (y0.min(f), y1.max(f));
     }
     if x0 > x1 || y0 > y1 {
-        return Err(anyhow!("{}: nothing to plot", path.display()));
+        return Err(anyhow!(
+            "{}: nothing to plot (no point has a positive, finite time and error; an error \
+             of 0, images that agree exactly, has no place on a log axis)",
+            path.display()
+        ));
     }
     // Pad by a fraction of a decade so end points are not on the frame.
     let (x0, x1, y0, y1) = (x0 / 1.5, x1 * 1.5, y0 / 1.5, y1 * 1.5);
