@@ -8,32 +8,32 @@
 //!
 //! The pipeline, one module per step:
 //!
-//! * [`build`](self::build): a binary tree by binned SAH (or the textbook
+//! * `build`: a binary tree by binned SAH (or the textbook
 //!   midpoint split) over primitive bounds, triangles and spheres alike,
 //!   with rayon for the subtrees and the scans of large nodes.
-//! * [`collapse`](self::collapse): which binary nodes become the slots of
+//! * `collapse`: which binary nodes become the slots of
 //!   each wide node — the collapse of least SAH cost, by dynamic
 //!   programming over the binary tree.
-//! * [`flatten`](self::flatten): lay that out as [`WIDTH`]-wide nodes whose
+//! * `flatten`: lay that out as [`WIDTH`]-wide nodes whose
 //!   child boxes are stored lane-wise (one SIMD register per slab plane),
 //!   with 32-bit child references, and copy the triangles, in leaf order,
 //!   into groups of [`TRI_WIDTH`] in structure-of-arrays form. The `Bvh`
 //!   owns this copy and never looks at the `Geometry` again.
-//! * [`traverse`](self::traverse): the batch is first culled [`WIDTH`]
+//! * `traverse`: the batch is first culled [`WIDTH`]
 //!   rays at a time against the scene bounds, then each surviving ray walks
 //!   the tree with a conservative (Ize 2013) slab test: nearest child first
 //!   for closest hits, in slot order for any hits.
-//! * [`packet`](self::packet): closest hit — when those [`WIDTH`] rays (or
+//! * `packet`: closest hit — when those [`WIDTH`] rays (or
 //!   those of two neighbouring slots, on AVX-512) all point into one octant
 //!   (the samples of a pixel) they walk the tree together instead, one lane
 //!   per ray, with the same answers bit for bit.
-//! * [`bundle`](self::bundle): any hit — two or more rays of a slot walk
+//! * `bundle`: any hit — two or more rays of a slot walk
 //!   the tree together, each tested alone at every node it enters, sharing
 //!   the walk's control (the shadow rays of one path vertex share most of
 //!   the top of the tree).
-//! * [`triangle`](self::triangle): watertight ray/triangle test (Woop,
+//! * `triangle`: watertight ray/triangle test (Woop,
 //!   Benthin, Wald 2013), [`TRI_WIDTH`] triangles per SIMD test.
-//! * [`sphere`](self::sphere): numerically stable ray/sphere test; spheres
+//! * `sphere`: numerically stable ray/sphere test; spheres
 //!   live in their own leaves, so scenes without spheres never pay for them.
 //!
 //! Memory: a wide node is 256 bytes (8 × 6 bounds + 8 child references,
@@ -137,12 +137,12 @@ const WIDE_PACKETS: bool = cfg!(target_feature = "avx512f");
 
 /// SIMD register type of the node and triangle tests.
 pub(crate) type Lanes = wide::f32x8;
-/// Children per node: the lane count of [`Lanes`].
+/// Children per node: the lane count of `Lanes` (`wide::f32x8`).
 pub const WIDTH: usize = 8;
 /// SIMD register type of the triangle test. 4 lanes (f32x4) measured the
 /// same speed on CBbunny/maxplanck but needs ~30% more nodes and memory.
 pub(crate) type TriLanes = wide::f32x8;
-/// Triangles per leaf group: the lane count of [`TriLanes`].
+/// Triangles per leaf group: the lane count of `TriLanes` (`wide::f32x8`).
 pub const TRI_WIDTH: usize = 8;
 
 /// Which acceleration structure to build (`--accel sah|median|none`).

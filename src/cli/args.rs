@@ -51,6 +51,8 @@ pub struct Args {
     pub max_depth: u32,
 
     /// Output image: .png (8-bit, tone-mapped) or .exr (linear float) [default: <scene>.png]
+    // The comment is --help's text too, where <scene> reads as it should.
+    #[allow(rustdoc::invalid_html_tags)]
     #[arg(short = 'f', long = "output", value_name = "FILE")]
     pub output: Option<PathBuf>,
 

@@ -52,7 +52,7 @@ pub enum LightSource {
         /// Largest distance along an axis from any point of the light to its
         /// corners.
         extent: f32,
-        /// Largest coordinate magnitude in the scene (see [`connect_x8`]).
+        /// Largest coordinate magnitude in the scene (see `connect_x8`).
         scene_extent: f32,
     },
     Hemisphere {
@@ -72,7 +72,7 @@ pub enum LightSource {
         /// Cumulative area, normalised to end at 1.
         cdf: Vec<f32>,
         total_area: f32,
-        /// Largest coordinate magnitude in the scene (see [`connect_x8`]).
+        /// Largest coordinate magnitude in the scene (see `connect_x8`).
         scene_extent: f32,
     },
 }
