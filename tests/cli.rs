@@ -461,8 +461,8 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     // A reference holds a replicate and the replicates' running sums: 16 M
-    // pixels of them (1.1 GiB) do not fit where the image alone (0.5 GiB)
-    // would.
+    // pixels of them (1.0 GiB) do not fit where a render's image and its
+    // PNG buffer (0.46 GiB) would.
     let reference = scratch("too_large_reference.exr");
     let o = limited(&[
         "converge",
@@ -479,7 +479,7 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
     assert!(
         err.starts_with(
             "error: -r 4000 4000: a replicate and the replicates' running sums alone need \
-             1.1 GiB (72 bytes per pixel), and "
+             1.0 GiB (68 bytes per pixel), and "
         ),
         "{err}"
     );

@@ -175,23 +175,32 @@ fn compare_goes_quietly_when_its_reader_stops_reading() {
     assert!(!err.contains("panicked"), "{err}");
 }
 
-/// converge's one-sample budget takes a random point of each pixel, as
-/// its reference averages over each pixel, not the pixel's centre (which
-/// a render of one sample per pixel takes, and which would measure a
-/// fixed bias besides the noise). At `-m 0` nothing else is random: the
-/// one-sample error changes with the seed only if the points do.
+/// converge's one-sample budget and a reference's one-sample replicates
+/// take a random point of each pixel, as the reference averages over each
+/// pixel, not the pixel's centre (which a render of one sample per pixel
+/// takes, and which would measure a fixed bias besides the noise). At
+/// `-m 0` nothing else is random: the one-sample error changes with the
+/// seed, and replicates differ, only if the points do.
 #[test]
 fn converges_one_sample_budget_is_a_random_point_of_each_pixel() {
     let dir = scratch("converge_one_sample");
     // The whole box at 480×360 (smaller images crop its middle): the
     // light's edges cross pixels.
     let common = ["-m", "0", "-r", "480", "360"];
+    // Eight replicates of one sample each: were they pixel centres, all
+    // would be the same image and their spread 0.
     let reference = [
-        &["--make-reference", "-s", "16", "--ref", "r.exr"],
+        &["--make-reference", "-s", "8", "--ref", "r.exr"],
         &common[..],
     ]
     .concat();
-    converge(&dir, &reference);
+    let (out, _) = converge(&dir, &reference);
+    let own: f64 = out
+        .split("its own relMSE, measured from 8 independent replicates: ")
+        .nth(1)
+        .and_then(|v| v.trim().parse().ok())
+        .expect(&out);
+    assert!(own > 0.0, "{out}");
     let one_sample = |seed: &str, csv: &str| {
         let args = [
             &[
@@ -501,9 +510,10 @@ fn a_references_own_error_is_what_two_references_differ_by() {
 /// its replicates' samples, however few, are spread over each pixel (a
 /// render of one sample per pixel otherwise takes the pixel's centre,
 /// another image). Eight samples a pixel are too few for the per-pixel
-/// test on each file's own variance (compare warns); the two files come
-/// from one estimator, whose pooled variance the test can trust, and which
-/// still tells another image (one bounce fewer) apart.
+/// test on each file's own variance (compare warns, naming the file); the
+/// two files come from one estimator, so the test may take each pixel's
+/// larger variance estimate (the reference's), and that still tells
+/// another image (one bounce fewer) apart.
 #[test]
 fn a_reference_of_few_samples_estimates_the_same_image() {
     let dir = scratch("converge_few_samples");
@@ -530,9 +540,10 @@ fn a_reference_of_few_samples_estimates_the_same_image() {
     };
     let (_, err) = compare(&[], "few.exr");
     assert!(
-        err.contains("some pixels hold only 8 samples, too few"),
+        err.contains("few.exr: some pixels hold only 8 samples, too few"),
         "{err}"
     );
+    assert!(!err.contains("many.exr"), "{err}");
     let (report, err) = compare(&["--same-estimator"], "few.exr");
     assert!(report.contains(": consistent"), "{report}");
     assert_eq!(err, "");
@@ -834,6 +845,37 @@ fn compare_says_what_the_files_allow_and_no_more() {
     let (out, _) = compare("noisy", "noisy");
     assert_eq!(says(&out), (true, true), "{out}");
     assert!(out.contains("consistent"), "{out}");
+
+    // Few samples: the per-pixel test is warned about, naming the file;
+    // --same-estimator needs both files' sample counts.
+    let (_, err) = compare("noisy", "noisy");
+    assert_eq!(
+        err.matches("noisy.exr: some pixels hold only 16 samples")
+            .count(),
+        2,
+        "{err}"
+    );
+    let mut uncounted = noisy.clone();
+    uncounted.samples.fill(0);
+    write_exr_with_error(&uncounted, &dir.join("uncounted.exr"), &[]).unwrap();
+    let same = |image: &str| {
+        let o = wavepath(&[
+            "compare",
+            "--same-estimator",
+            &s(&dir.join(format!("{image}.exr"))),
+            &s(&dir.join("noisy.exr")),
+        ]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        text(&o.stderr)
+    };
+    assert_eq!(same("noisy"), "");
+    let err = same("uncounted");
+    assert!(
+        err.contains("--same-estimator needs sample counts in both files, and ")
+            && err.contains("uncounted.exr has none"),
+        "{err}"
+    );
+    assert!(err.contains("noisy.exr: some pixels hold only 16"), "{err}");
 
     let (_, err) = compare("broken", "plain");
     assert!(

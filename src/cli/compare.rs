@@ -43,8 +43,9 @@ pub struct CompareArgs {
     pub tonemap: ToneCurve,
     /// Both images come from one estimator and settings (seeds and samples
     /// may differ): the same-mean test then takes each pixel's per-sample
-    /// variance as the larger of the two files' estimates, so a pixel whose
-    /// few samples saw no spread is not taken as certain
+    /// variance as the larger of the two files' estimates (both must record
+    /// sample counts), so a pixel whose few samples saw no spread is not
+    /// taken as certain
     #[arg(long = "same-estimator")]
     pub same_estimator: bool,
 }
@@ -197,18 +198,34 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
     }
     if has_error(&image) && has_error(&reference) {
         let alpha = 1e-3;
-        // Sample counts where the files hold them (0: not recorded).
-        let fewest = [&image, &reference]
-            .iter()
-            .flat_map(|im| im.samples.iter().copied())
-            .filter(|&n| n > 0)
-            .min();
-        if let Some(fewest) = fewest.filter(|&n| n < FEW_SAMPLES && !args.same_estimator) {
-            eprintln!(
-                "warning: some pixels hold only {fewest} samples, too few to estimate their \
-                 variance: the per-pixel test may call equal images different; for images of \
-                 one estimator, --same-estimator pools their variances"
-            );
+        let files = [(&image, &args.image), (&reference, &args.reference)];
+        // The fewest samples a pixel holds, where the file records counts
+        // (0: not recorded).
+        let fewest = |im: &Image| im.samples.iter().copied().filter(|&n| n > 0).min();
+        let mut own_variances = !args.same_estimator;
+        if args.same_estimator {
+            for (im, path) in files {
+                if fewest(im).is_none() {
+                    eprintln!(
+                        "warning: --same-estimator needs sample counts in both files, and {} \
+                         has none: each file's own variance is used",
+                        path.display()
+                    );
+                    own_variances = true;
+                }
+            }
+        }
+        for (im, path) in files {
+            match fewest(im) {
+                Some(n) if own_variances && n < FEW_SAMPLES => eprintln!(
+                    "warning: {}: some pixels hold only {n} samples, too few to estimate their \
+                     variance: the per-pixel test may call equal images different; for images \
+                     of one estimator, --same-estimator takes the larger of the two files' \
+                     estimates",
+                    path.display()
+                ),
+                _ => {}
+            }
         }
         let t = metrics::z_test(&image, &reference, alpha, args.same_estimator)?;
         say!(

@@ -24,7 +24,7 @@ use clap::parser::ValueSource;
 use clap::{CommandFactory, FromArgMatches, Parser, ValueEnum};
 
 use super::Args;
-use super::memory::{self, IMAGE_BYTES_PER_PIXEL};
+use super::memory;
 use super::plot::{self, Curve};
 use crate::bvh::Bvh;
 use crate::film::output::{self, Format};
@@ -514,15 +514,16 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     // its centre (which would measure another image's error).
     settings.centre_single_sample = false;
     // Two images at once: a reference's replicate and the replicates'
-    // running sums, or the reference and a render measured against it.
+    // running sums, or the reference and a render measured against it
+    // (the reference is read from its file's decoded channels, which take
+    // an image's room again until it is read).
     let (per_pixel, what) = if args.make_reference {
-        let sums = replicates::BYTES_PER_PIXEL;
         (
-            IMAGE_BYTES_PER_PIXEL + sums,
+            Image::BYTES_PER_PIXEL + replicates::BYTES_PER_PIXEL,
             "a replicate and the replicates' running sums",
         )
     } else {
-        (2 * IMAGE_BYTES_PER_PIXEL, "the reference and a render")
+        (2 * Image::BYTES_PER_PIXEL, "the reference and a render")
     };
     if let Some(why) = memory::does_not_fit(settings.area().pixel_count() as u64, per_pixel, what) {
         bail!("-r {} {}: {why}", settings.width, settings.height);
@@ -640,20 +641,16 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
             .iter()
             .map(|(n, v)| format!("{n}={v}"))
             .collect();
-        let (own, how) = match combined.rel_mse {
-            Some(own) => {
-                pairs.push(format!("{OWN_REL_MSE}={own:.6e}"));
-                (own, format!("measured from {parts} independent replicates"))
-            }
-            None => (
-                metrics::rel_mse_from_variance(&combined.image),
-                "estimated from its variance".to_string(),
-            ),
-        };
+        // -s 2 at least, so two replicates at least: a spread to measure.
+        let own = combined
+            .rel_mse
+            .expect("a reference has two replicates or more");
+        pairs.push(format!("{OWN_REL_MSE}={own:.6e}"));
         let note = (REFERENCE_NOTE.to_string(), pairs.join(";"));
         output::write_exr_with_error(&combined.image, &reference_path, &[note])?;
         say!(
-            "wrote {} ({} spp in {secs:.1} s); its own relMSE, {how}: {own:.3e}",
+            "wrote {} ({} spp in {secs:.1} s); its own relMSE, measured from {parts} \
+             independent replicates: {own:.3e}",
             reference_path.display(),
             parts * settings.spp
         );

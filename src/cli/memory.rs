@@ -3,24 +3,19 @@
 //! allocation failure (an abort, not an error message) or the kernel's
 //! out-of-memory killer, after the scene had loaded and rendered.
 //!
-//! Only what grows with `-r` is counted, exactly: the finished image (the
-//! renderer stores each tile into it as soon as the tile is done, so the
-//! tiles' own sums are only those in flight) and the buffer its file is
-//! encoded from. The scene, BVH, threads and allocator come on top, so a
-//! render that passes may still not fit; one that fails certainly would
-//! not. The memory available is read from Linux's /proc (what the kernel
+//! Only what grows with `-r` is counted, exactly: for a render, the
+//! finished image (the renderer stores each tile into it as soon as the
+//! tile is done, so the tiles' own sums are only those in flight) and the
+//! buffer its file is encoded from; for `converge`, the two images it
+//! holds at once (see there). The scene, BVH, threads and allocator come
+//! on top, so a render that passes may still not fit; one that fails
+//! certainly would not. The memory available is read from Linux's /proc (what the kernel
 //! could give without swapping anything else out, plus free swap, and the
 //! process's address-space limit, `ulimit -v`); elsewhere nothing is
 //! checked.
 
+use crate::film::Image;
 use crate::film::output::Format;
-
-/// Bytes of image per rendered pixel: f32 RGB mean and variance and a u32
-/// sample count ([`crate::film::Image`]).
-pub const IMAGE_BYTES_PER_PIXEL: u64 = {
-    use std::mem::size_of;
-    (2 * size_of::<glam::Vec3>() + size_of::<u32>()) as u64
-};
 
 /// Bytes per pixel of the buffer an image file is encoded from: 8-bit
 /// RGB for a PNG; f32 R, G, B and the sample count for an EXR.
@@ -67,7 +62,7 @@ pub fn image_does_not_fit(pixels: u64, format: Format) -> Option<String> {
         Format::Png => "PNG",
         Format::Exr => "EXR",
     };
-    let per_pixel = IMAGE_BYTES_PER_PIXEL + encoding_bytes_per_pixel(format);
+    let per_pixel = Image::BYTES_PER_PIXEL + encoding_bytes_per_pixel(format);
     does_not_fit(
         pixels,
         per_pixel,
@@ -135,10 +130,10 @@ mod tests {
 
     #[test]
     fn an_image_that_does_not_fit_is_refused_with_both_sizes() {
-        assert_eq!(IMAGE_BYTES_PER_PIXEL, 28);
+        assert_eq!(Image::BYTES_PER_PIXEL, 28);
         let pixels = 16000 * 16000;
-        let exr = IMAGE_BYTES_PER_PIXEL + encoding_bytes_per_pixel(Format::Exr);
-        let png = IMAGE_BYTES_PER_PIXEL + encoding_bytes_per_pixel(Format::Png);
+        let exr = Image::BYTES_PER_PIXEL + encoding_bytes_per_pixel(Format::Exr);
+        let png = Image::BYTES_PER_PIXEL + encoding_bytes_per_pixel(Format::Png);
         assert_eq!((exr, png), (44, 31));
         let e = refusal(pixels, exr, "the image and its EXR encoding", 4 << 30).unwrap();
         assert_eq!(

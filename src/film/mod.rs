@@ -130,6 +130,10 @@ pub struct Image {
 }
 
 impl Image {
+    /// Bytes per pixel: f32 RGB mean and variance and a u32 sample count.
+    pub const BYTES_PER_PIXEL: u64 =
+        (2 * std::mem::size_of::<Vec3>() + std::mem::size_of::<u32>()) as u64;
+
     pub fn new(width: u32, height: u32) -> Self {
         let n = width as usize * height as usize;
         Image {

@@ -303,7 +303,7 @@ fn read_exr_header(path: &Path) -> Result<exr::meta::MetaData> {
 
 /// Reads the first layer of an EXR: R, G, B (or Y for grey) are required.
 fn read_exr(path: &Path) -> Result<Image> {
-    use exr::prelude::read_first_flat_layer_from_file;
+    use exr::prelude::{FlatSamples, read_first_flat_layer_from_file};
     // The header first: a few hundred bytes can claim 1e10 pixels, which
     // the decoder would try to allocate before finding the data missing.
     let meta = read_exr_header(path)?;
@@ -322,13 +322,15 @@ fn read_exr(path: &Path) -> Result<Image> {
     let decoded = read_first_flat_layer_from_file(path).map_err(|e| cannot_read_exr(path, e))?;
     let layer = decoded.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());
-    let find = |name: &str| -> Option<Vec<f32>> {
+    // Channels are read in place, not copied: the decoded layer and the
+    // image are all a reference takes in memory.
+    let find = |name: &str| {
         layer
             .channel_data
             .list
             .iter()
             .find(|c| c.name.eq_case_insensitive(name))
-            .map(|c| c.sample_data.values_as_f32().collect::<Vec<f32>>())
+            .map(|c| &c.sample_data)
     };
     // Subsampled channels (e.g. chroma) have fewer samples than pixels.
     if let Some(c) = layer
@@ -343,26 +345,31 @@ fn read_exr(path: &Path) -> Result<Image> {
             c.name
         );
     }
-    let grey = find("Y");
     let rgb = match (find("R"), find("G"), find("B")) {
         (Some(r), Some(g), Some(b)) => [r, g, b],
-        _ => match grey {
-            Some(y) => [y.clone(), y.clone(), y],
+        _ => match find("Y") {
+            Some(y) => [y, y, y],
             None => bail!("{}: EXR has no R, G, B (or Y) channels", path.display()),
         },
     };
     let mut image = super::Image::new(w as u32, h as u32);
-    for (i, p) in image.pixels.iter_mut().enumerate() {
-        *p = Vec3::new(rgb[0][i], rgb[1][i], rgb[2][i]);
+    fn rgb_values<'a>([r, g, b]: [&'a FlatSamples; 3]) -> impl Iterator<Item = Vec3> + 'a {
+        r.values_as_f32()
+            .zip(g.values_as_f32())
+            .zip(b.values_as_f32())
+            .map(|((r, g), b)| Vec3::new(r, g, b))
+    }
+    for (dst, v) in image.pixels.iter_mut().zip(rgb_values(rgb)) {
+        *dst = v;
     }
     if let Some(n) = find("samples") {
-        for (dst, v) in image.samples.iter_mut().zip(n) {
+        for (dst, v) in image.samples.iter_mut().zip(n.values_as_f32()) {
             *dst = v.max(0.0) as u32;
         }
     }
     if let [Some(r), Some(g), Some(b)] = STDERR_CHANNELS.map(find) {
-        for (i, v) in image.variance.iter_mut().enumerate() {
-            *v = Vec3::new(r[i], g[i], b[i]).powf(2.0);
+        for (dst, v) in image.variance.iter_mut().zip(rgb_values([r, g, b])) {
+            *dst = v.powf(2.0);
         }
     }
     Ok(image)

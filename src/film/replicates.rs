@@ -47,30 +47,24 @@ pub struct Replicates {
     /// `pixels`: the running mean of the replicates' means (Welford);
     /// `variance`: Σ (nₖ − 1) sₖ², the squares within replicates;
     /// `samples`: Σ nₖ.
-    sums: Image,
+    running: Image,
     /// Σ (mₖ − m̄)², the squares between replicates (Welford's M₂).
     between: Vec<Vec3>,
     /// Replicates added.
     count: u32,
-    /// Each pixel's sample count in every replicate (the first one's).
-    per_replicate: Vec<u32>,
 }
 
 /// Bytes per pixel that [`Replicates`] holds.
-pub const BYTES_PER_PIXEL: u64 = {
-    use std::mem::size_of;
-    (3 * size_of::<Vec3>() + 2 * size_of::<u32>()) as u64
-};
+pub const BYTES_PER_PIXEL: u64 = Image::BYTES_PER_PIXEL + std::mem::size_of::<Vec3>() as u64;
 
 impl Replicates {
     pub fn new(width: u32, height: u32) -> Self {
-        let sums = Image::new(width, height);
-        let n = sums.pixels.len();
+        let running = Image::new(width, height);
+        let n = running.pixels.len();
         Replicates {
-            sums,
+            running,
             between: vec![Vec3::ZERO; n],
             count: 0,
-            per_replicate: Vec::new(),
         }
     }
 
@@ -80,34 +74,37 @@ impl Replicates {
     /// If `replicate` differs from the first in size or in a pixel's sample
     /// count.
     pub fn add(&mut self, replicate: &Image) {
+        let running = &mut self.running;
         assert!(
-            (replicate.width, replicate.height) == (self.sums.width, self.sums.height),
+            (replicate.width, replicate.height) == (running.width, running.height),
             "replicates of one image have one size"
         );
         // Equal counts make the replicates identically distributed and the
         // pooled formula in `combine` exact (converge renders them without
-        // adaptive sampling and keeps only complete ones).
-        if self.count == 0 {
-            self.per_replicate.clone_from(&replicate.samples);
-        }
+        // adaptive sampling and keeps only complete ones): each pixel has
+        // had `count` times this replicate's samples so far.
+        let before = self.count;
         assert!(
-            replicate.samples == self.per_replicate,
+            running
+                .samples
+                .iter()
+                .zip(&replicate.samples)
+                .all(|(&sum, &n)| sum == before * n),
             "replicates take equal samples in every pixel"
         );
         self.count += 1;
         let k = self.count as f32;
-        let sums = &mut self.sums;
-        for i in 0..sums.pixels.len() {
+        for i in 0..running.pixels.len() {
             // Welford: the mean and Σ (mₖ − m̄)² in one pass.
             let m = replicate.pixels[i];
-            let delta = m - sums.pixels[i];
-            sums.pixels[i] += delta / k;
-            self.between[i] += delta * (m - sums.pixels[i]);
+            let delta = m - running.pixels[i];
+            running.pixels[i] += delta / k;
+            self.between[i] += delta * (m - running.pixels[i]);
             // (nₖ − 1) sₖ², with sₖ² = nₖ · (the variance of replicate k's
             // mean).
             let nk = replicate.samples[i] as f32;
-            sums.variance[i] += replicate.variance[i] * nk * (nk - 1.0).max(0.0);
-            sums.samples[i] += replicate.samples[i];
+            running.variance[i] += replicate.variance[i] * nk * (nk - 1.0).max(0.0);
+            running.samples[i] += replicate.samples[i];
         }
     }
 
@@ -118,7 +115,7 @@ impl Replicates {
     pub fn combine(self) -> Combined {
         assert!(self.count > 0, "a reference of no replicates");
         let k = self.count as f32;
-        let mut image = self.sums;
+        let mut image = self.running;
         // The spread of the replicates' means, as the variance of their
         // mean (two replicates at least).
         let rel_mse = (self.count > 1).then(|| {

@@ -55,7 +55,8 @@ pub struct CameraRays<'a> {
     pub camera: &'a Camera,
     pub view: CameraView,
     pub seed: u32,
-    /// With one sample per pixel the ray goes through the pixel centre.
+    /// Every ray goes through its pixel's centre (a 1-spp render, unless
+    /// `RenderSettings::centre_single_sample` is false).
     pub pixel_centre: bool,
     /// Thin lens: aperture radius (0 = pinhole) and distance of the plane in focus.
     pub lens_radius: f32,
