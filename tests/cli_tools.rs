@@ -195,12 +195,7 @@ fn converges_one_sample_budget_is_a_random_point_of_each_pixel() {
     ]
     .concat();
     let (out, _) = converge(&dir, &reference);
-    let own: f64 = out
-        .split("its own relMSE, measured from 8 independent replicates: ")
-        .nth(1)
-        .and_then(|v| v.trim().parse().ok())
-        .expect(&out);
-    assert!(own > 0.0, "{out}");
+    assert!(own_rel_mse(&out, 8) > 0.0, "{out}");
     let one_sample = |seed: &str, csv: &str| {
         let args = [
             &[
@@ -477,10 +472,7 @@ fn a_references_own_error_is_what_two_references_differ_by() {
         .iter()
         .map(|seed| {
             let out = small_reference(&dir, "256", seed, &format!("ref{seed}.exr"));
-            out.split("measured from 8 independent replicates: ")
-                .nth(1)
-                .and_then(|v| v.trim().parse().ok())
-                .expect(&out)
+            own_rel_mse(&out, 8)
         })
         .collect();
     let o = wavepath_in(&dir, &["compare", "ref0.exr", "ref1.exr"]);
@@ -869,6 +861,11 @@ fn compare_says_what_the_files_allow_and_no_more() {
         text(&o.stderr)
     };
     assert_eq!(same("noisy"), "");
+    // 32 samples a pixel are enough.
+    let mut enough = noisy.clone();
+    enough.samples.fill(32);
+    write_exr_with_error(&enough, &dir.join("enough.exr"), &[]).unwrap();
+    assert_eq!(compare("enough", "enough").1, "");
     let err = same("uncounted");
     assert!(
         err.contains("--same-estimator needs sample counts in both files, and ")
@@ -912,6 +909,16 @@ fn compare_fails_when_its_report_cannot_be_written() {
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("cannot write to stdout"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
+}
+
+/// The own relMSE a `converge --make-reference` run printed, `replicates`
+/// being the number it must say it rendered.
+fn own_rel_mse(out: &str, replicates: u32) -> f64 {
+    let said = format!("its own relMSE, measured from {replicates} independent replicates: ");
+    out.split(&said)
+        .nth(1)
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no '{said}' in: {out}"))
 }
 
 /// Runs `wavepath converge` in `dir` with `args`; must succeed. Returns
@@ -1103,11 +1110,7 @@ fn converge_reports_each_estimator_against_the_references_noise() {
         .concat(),
     );
     assert!(err.contains("rendering the reference: "), "{err}");
-    let floor: f64 = out
-        .split("its own relMSE, measured from 4 independent replicates: ")
-        .nth(1)
-        .and_then(|v| v.trim().parse().ok())
-        .expect(&out);
+    let floor = own_rel_mse(&out, 4);
     assert!(floor > 0.0, "{out}");
     let (_, err) = converge(
         &dir,
