@@ -220,6 +220,40 @@ fn converges_one_sample_budget_is_a_random_point_of_each_pixel() {
     assert!(a > 0.0 && a != b, "{a} {b}");
 }
 
+/// A measurement whose every error is 0 (at `-m 0` the middle of the box
+/// that a small image shows emits nothing: every render is black, as is
+/// the reference) writes its CSV and says why there is no plot, instead of
+/// failing after the renders.
+#[test]
+fn converge_without_an_error_to_plot_writes_the_csv_and_says_so() {
+    let dir = scratch("converge_black");
+    let common = ["-m", "0", "-r", "24", "18"];
+    converge(
+        &dir,
+        &[
+            &["--make-reference", "-s", "2", "--ref", "r.exr"],
+            &common[..],
+        ]
+        .concat(),
+    );
+    let (_, err) = converge(
+        &dir,
+        &[
+            &["--max-spp", "2", "--ref", "r.exr", "--csv", "c.csv"],
+            &common[..],
+        ]
+        .concat(),
+    );
+    let rows = csv_rows(&dir.join("c.csv"));
+    assert_eq!(rows.len(), 2);
+    assert!(rows.iter().all(|r| r.3 == 0.0), "{rows:?}");
+    assert!(
+        err.contains("c.svg not written: no budget has a positive error"),
+        "{err}"
+    );
+    assert!(!dir.join("c.svg").exists());
+}
+
 #[test]
 fn converge_makes_a_reference_with_its_noise_and_writes_csv_and_plot() {
     let dir = scratch("converge");

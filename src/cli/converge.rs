@@ -771,7 +771,13 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         })
         .filter(|c| !c.points.is_empty())
         .collect();
-    if !curves.is_empty() {
+    if !plot::has_plottable_point(&curves) {
+        eprintln!(
+            "warning: {} not written: no budget has a positive error and time to plot (an \
+             error of 0: the renders equal the reference)",
+            plot_path.display()
+        );
+    } else {
         let title = format!(
             "{} {}x{} -m {}: relMSE vs time, {threads} threads",
             Path::new(&scene_name)

@@ -25,6 +25,21 @@ const COLOURS: [RGBColor; 6] = [
     RGBColor(140, 86, 75),
 ];
 
+/// What a log axis can show: positive, and far enough from the ends of
+/// f64 that the padded range stays finite (the axis code loops forever on
+/// an infinite end).
+fn plottable(v: f64) -> bool {
+    (1e-300..=1e300).contains(&v)
+}
+
+/// Whether any point of `curves` can be drawn on log–log axes.
+pub fn has_plottable_point(curves: &[Curve]) -> bool {
+    curves
+        .iter()
+        .flat_map(|c| &c.points)
+        .any(|&(x, y)| plottable(x) && plottable(y))
+}
+
 /// Writes a log–log plot of the curves to `path` (SVG). `floor`, if given,
 /// is drawn as a dashed horizontal line (e.g. the reference's own noise).
 pub fn error_vs_time(
@@ -35,10 +50,6 @@ pub fn error_vs_time(
     floor: Option<(f64, &str)>,
 ) -> Result<()> {
     let err = |e: &dyn std::fmt::Display| anyhow!("{}: cannot write plot: {e}", path.display());
-    // What a log axis can show: positive, and far enough from the ends of
-    // f64 that the padded range below stays finite (the axis code loops
-    // forever on an infinite end).
-    let plottable = |v: f64| (1e-300..=1e300).contains(&v);
     let pts = || {
         curves
             .iter()
