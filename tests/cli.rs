@@ -484,6 +484,26 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
         "{err}"
     );
     assert!(!reference.exists());
+    // Measuring holds the reference and a render (converge writes no
+    // image, so a render's PNG check does not apply to it).
+    let o = limited(&[
+        "converge",
+        "-r",
+        "8000",
+        "8000",
+        "--ref",
+        reference.to_str().unwrap(),
+        scene,
+    ]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.starts_with(
+            "error: -r 8000 8000: the reference and a render alone need 3.3 GiB \
+             (56 bytes per pixel), and "
+        ),
+        "{err}"
+    );
 }
 
 #[test]

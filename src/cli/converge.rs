@@ -507,7 +507,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         bail!("--targets must be positive numbers, got {t}");
     }
 
-    let (mut settings, _) = super::validate(&args.render);
+    let (mut settings, _, _) = super::validate(&args.render);
     settings.adaptive = None;
     // Every render here estimates each pixel's average, as the reference
     // does: the 1-spp budget too takes a random point of the pixel, not

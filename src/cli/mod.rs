@@ -65,7 +65,7 @@ fn usage_error<C: CommandFactory>(msg: String) -> ! {
 
 /// Checks what clap cannot: cross-field and float-valued flags.
 /// Exits with a usage hint on nonsense, like clap's own errors.
-fn validate(args: &Args) -> (RenderSettings, PathBuf) {
+fn validate(args: &Args) -> (RenderSettings, PathBuf, output::Format) {
     let fail = usage_error::<Args>;
     let adaptive = if args.no_adaptive {
         None
@@ -161,14 +161,20 @@ fn validate(args: &Args) -> (RenderSettings, PathBuf) {
         },
         region,
     };
+    (settings, output, format)
+}
+
+/// Refuses, as a usage error, a render whose image and its encoding as
+/// `format` cannot fit in the memory available (converge checks its own
+/// needs instead).
+fn check_memory(settings: &RenderSettings, format: output::Format) {
     if let Some(why) = memory::image_does_not_fit(settings.area().pixel_count() as u64, format) {
         let (w, h) = (settings.width, settings.height);
-        match region {
-            Some(_) => fail(format!("-r {w} {h} with -p: for the cell, {why}")),
-            None => fail(format!("-r {w} {h}: {why}")),
-        }
+        usage_error::<Args>(match settings.region {
+            Some(_) => format!("-r {w} {h} with -p: for the cell, {why}"),
+            None => format!("-r {w} {h}: {why}"),
+        });
     }
-    (settings, output)
 }
 
 /// Why the output file `path` cannot be written, found out before the
@@ -353,7 +359,8 @@ pub fn run() -> Result<i32> {
         _ => {}
     }
     let args = Args::parse_from(argv);
-    let (settings, output_path) = validate(&args);
+    let (settings, output_path, format) = validate(&args);
+    check_memory(&settings, format);
     let image = format!("-f {}", output_path.display());
     if let Some(why) = unwritable(&output_path) {
         usage_error::<Args>(format!("{image}: {why}"));
