@@ -419,90 +419,64 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
             .output()
             .expect("run wavepath under sh")
     };
+    // Refused with exit status `code`, the message starting `start` and
+    // giving the memory available.
+    let refused = |args: &[&str], code: i32, start: &str| {
+        let o = limited(args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(code), "{err}");
+        assert!(err.starts_with(start), "{err}");
+        assert!(err.contains("GiB of memory is available"), "{err}");
+    };
     // 64 M pixels: 1.8 GiB of image and PNG buffer, against under 1 GB
     // of address space.
-    let o = limited(&[
-        "-q",
-        "-r",
-        "8000",
-        "8000",
-        "-f",
-        out.to_str().unwrap(),
-        scene,
-    ]);
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.starts_with(
-            "error: -r 8000 8000: the image and its PNG encoding alone need 1.8 GiB \
-             (31 bytes per pixel), and "
-        ),
-        "{err}"
+    let (out_arg, big) = (out.to_str().unwrap(), ["-r", "8000", "8000"]);
+    refused(
+        &[&["-q"], &big[..], &["-f", out_arg, scene]].concat(),
+        2,
+        "error: -r 8000 8000: the image and its PNG encoding alone need 1.8 GiB \
+         (31 bytes per pixel), and ",
     );
-    assert!(err.contains("GiB of memory is available"), "{err}");
     assert!(!out.exists());
     // A small cell of the same image fits, and renders (on two threads,
     // whatever the machine: each thread's stack takes address space).
-    let o = limited(&[
-        "-q",
-        "-t",
-        "2",
-        "-r",
-        "8000",
-        "8000",
-        "-p",
-        "0",
-        "0",
-        "64",
-        "48",
-        "-f",
-        out.to_str().unwrap(),
-        scene,
-    ]);
+    let o = limited(
+        &[
+            &["-q", "-t", "2"],
+            &big[..],
+            &["-p", "0", "0", "64", "48", "-f", out_arg, scene],
+        ]
+        .concat(),
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     // A reference holds a replicate and the replicates' running sums: 16 M
     // pixels of them (1.0 GiB) do not fit where a render's image and its
     // PNG buffer (0.46 GiB) would.
     let reference = scratch("too_large_reference.exr");
-    let o = limited(&[
-        "converge",
-        "--make-reference",
-        "-r",
-        "4000",
-        "4000",
-        "--ref",
-        reference.to_str().unwrap(),
-        scene,
-    ]);
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(
-        err.starts_with(
-            "error: -r 4000 4000: a replicate and the replicates' running sums alone need \
-             1.0 GiB (68 bytes per pixel), and "
-        ),
-        "{err}"
+    let ref_arg = reference.to_str().unwrap();
+    refused(
+        &[
+            "converge",
+            "--make-reference",
+            "-r",
+            "4000",
+            "4000",
+            "--ref",
+            ref_arg,
+            scene,
+        ],
+        1,
+        "error: -r 4000 4000: a replicate and the replicates' running sums alone need \
+         1.0 GiB (68 bytes per pixel), and ",
     );
     assert!(!reference.exists());
     // Measuring holds the reference and a render (converge writes no
     // image, so a render's PNG check does not apply to it).
-    let o = limited(&[
-        "converge",
-        "-r",
-        "8000",
-        "8000",
-        "--ref",
-        reference.to_str().unwrap(),
-        scene,
-    ]);
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(
-        err.starts_with(
-            "error: -r 8000 8000: the reference and a render alone need 3.3 GiB \
-             (56 bytes per pixel), and "
-        ),
-        "{err}"
+    refused(
+        &[&["converge"], &big[..], &["--ref", ref_arg, scene]].concat(),
+        1,
+        "error: -r 8000 8000: the reference and a render alone need 3.3 GiB \
+         (56 bytes per pixel), and ",
     );
 }
 
