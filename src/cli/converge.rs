@@ -771,7 +771,9 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         })
         .filter(|c| !c.points.is_empty())
         .collect();
-    if !plot::has_plottable_point(&curves) {
+    if curves.is_empty() {
+        // Interrupted before the first budget: nothing measured.
+    } else if !plot::has_plottable_point(&curves) {
         eprintln!(
             "warning: {} not written: no budget has a positive error and time to plot (an \
              error of 0: the renders equal the reference)",

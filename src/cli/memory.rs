@@ -9,10 +9,10 @@
 //! buffer its file is encoded from; for `converge`, the two images it
 //! holds at once (see there). The scene, BVH, threads and allocator come
 //! on top, so a render that passes may still not fit; one that fails
-//! certainly would not. The memory available is read from Linux's /proc (what the kernel
-//! could give without swapping anything else out, plus free swap, and the
-//! process's address-space limit, `ulimit -v`); elsewhere nothing is
-//! checked.
+//! certainly would not. The memory available is read from Linux's /proc
+//! (what the kernel could give without swapping anything else out, plus
+//! free swap, and the process's address-space limit, `ulimit -v`);
+//! elsewhere nothing is checked.
 
 use crate::film::Image;
 use crate::film::output::Format;
