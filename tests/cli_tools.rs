@@ -907,6 +907,13 @@ fn compare_says_what_the_files_allow_and_no_more() {
         "{err}"
     );
     assert!(err.contains("noisy.exr: some pixels hold only 16"), "{err}");
+    // Nor can it do anything without standard errors in both files.
+    let err = same("plain");
+    assert!(
+        err.contains("--same-estimator: no same-mean test, as ")
+            && err.contains("plain.exr has no standard-error channels"),
+        "{err}"
+    );
 
     let (_, err) = compare("broken", "plain");
     assert!(
@@ -1144,6 +1151,7 @@ fn converge_reports_each_estimator_against_the_references_noise() {
         .concat(),
     );
     assert!(err.contains("rendering the reference: "), "{err}");
+    assert!(err.contains(", 4 spp (4 replicates of 1), -m 2,"), "{err}");
     let floor = own_rel_mse(&out, 4);
     assert!(floor > 0.0, "{out}");
     let (_, err) = converge(

@@ -196,7 +196,17 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
     if let Some((noise, how)) = super::converge::reference_noise(note.as_ref(), &reference) {
         say!("reference noise: its own relMSE is about {noise:.3e} ({how})");
     }
-    if has_error(&image) && has_error(&reference) {
+    let without_errors = [(&image, &args.image), (&reference, &args.reference)]
+        .into_iter()
+        .find(|(im, _)| !has_error(im));
+    if let Some((_, path)) = without_errors.filter(|_| args.same_estimator) {
+        eprintln!(
+            "warning: --same-estimator: no same-mean test, as {} has no standard-error \
+             channels (converge --make-reference writes them)",
+            path.display()
+        );
+    }
+    if without_errors.is_none() {
         let alpha = 1e-3;
         let files = [(&image, &args.image), (&reference, &args.reference)];
         // The fewest samples a pixel holds, where the file records counts

@@ -598,23 +598,25 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     let Some((reference, note)) = reference else {
         let estimator = estimators[0];
         estimator.configure(&mut settings.integrator);
-        settings.spp = args.render.spp;
         settings.seed = settings.seed.wrapping_add(REFERENCE_SEED_OFFSET);
+        // Independent replicates, each with its own seeds (spaced so that
+        // references made with neighbouring --seed values share none), of
+        // equal samples: -s rounded up to a multiple of their number.
+        let parts = args.render.spp.min(REFERENCE_REPLICATES);
+        settings.spp = args.render.spp.div_ceil(parts);
         if chatty {
             eprintln!(
-                "rendering the reference: {scene_name}, {}x{}, {} spp, -m {}, {} estimator, {threads} threads",
+                "rendering the reference: {scene_name}, {}x{}, {} spp ({parts} replicates of {}), \
+                 -m {}, {} estimator, {threads} threads",
                 settings.width,
                 settings.height,
+                parts * settings.spp,
                 settings.spp,
                 settings.integrator.max_depth,
                 estimator.name()
             );
         }
-        // Independent replicates, each with its own seeds (spaced so that
-        // references made with neighbouring --seed values share none).
-        let parts = settings.spp.min(REFERENCE_REPLICATES);
         let seed = settings.seed;
-        settings.spp = settings.spp.div_ceil(parts);
         let area = settings.area();
         let mut replicates = replicates::Replicates::new(area.width, area.height);
         let mut secs = 0.0;

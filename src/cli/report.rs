@@ -25,7 +25,7 @@ pub fn timings(
         output.display(),
         result.image.width,
         result.image.height,
-        samples_taken(&result.image.samples, adaptive_max)
+        samples_taken(&result.image.samples, adaptive_max, result.complete)
     );
     eprintln!(
         "load {:.3} s | BVH build {:.3} s | render {:.3} s on {threads} thread{} | {:.2} Mrays/s",
@@ -109,9 +109,20 @@ pub fn stats(
 
 /// The samples per pixel on average and, when sampling was adaptive (up
 /// to `adaptive_max`), how many pixels stopped early: "64.0" alone would
-/// hide a few pixels that stopped at 32.
-fn samples_taken(samples: &[u32], adaptive_max: Option<u32>) -> String {
+/// hide a few pixels that stopped at 32. After an interrupt (not
+/// `complete`) the average is over the pixels rendered (those of any
+/// sample), and pixels cut short cannot be told from pixels that
+/// converged, so no early count is given.
+fn samples_taken(samples: &[u32], adaptive_max: Option<u32>, complete: bool) -> String {
+    let rendered = samples.iter().filter(|&&n| n > 0).count();
     let total: u64 = samples.iter().map(|&n| n as u64).sum();
+    if !complete {
+        let mean = total as f64 / rendered.max(1) as f64;
+        return format!(
+            "interrupted: {rendered} of {} pixels rendered, {mean:.2} samples/pixel on average",
+            samples.len()
+        );
+    }
     let mean = total as f64 / samples.len().max(1) as f64;
     match adaptive_max {
         None => format!("{mean:.1} samples/pixel on average"),
@@ -217,16 +228,25 @@ mod tests {
         // for a large image.
         let samples = [64, 64, 32, 64];
         assert_eq!(
-            samples_taken(&samples, Some(64)),
+            samples_taken(&samples, Some(64), true),
             "56.00 samples/pixel on average; 1 of 4 pixels stopped before 64"
         );
         assert_eq!(
-            samples_taken(&[64; 4], Some(64)).split("; ").nth(1),
+            samples_taken(&[64; 4], Some(64), true).split("; ").nth(1),
             Some("0 of 4 pixels stopped before 64")
         );
         assert_eq!(
-            samples_taken(&samples, None),
+            samples_taken(&samples, None, true),
             "56.0 samples/pixel on average"
         );
+        // An interrupted render: pixels of no sample were not rendered;
+        // those cut short are not counted as stopping early.
+        let cut = [64, 0, 32, 64, 0];
+        for adaptive in [Some(64), None] {
+            assert_eq!(
+                samples_taken(&cut, adaptive, false),
+                "interrupted: 3 of 5 pixels rendered, 53.33 samples/pixel on average"
+            );
+        }
     }
 }
