@@ -117,9 +117,9 @@ pub struct Renderer<'a> {
     pub warnings: Vec<String>,
 }
 
-/// Buffers reused from tile to tile: rayon's `map_init` makes one per split
-/// of the tile list (a handful per thread, not one per tile), so tiles
-/// allocate almost nothing once the first few have grown them.
+/// Buffers reused from tile to tile: rayon's `for_each_init` makes one per
+/// split of the tile list (a handful per thread, not one per tile), so
+/// tiles allocate almost nothing once the first few have grown them.
 #[derive(Default)]
 struct Scratch {
     paths: Paths,
