@@ -220,6 +220,81 @@ fn converges_one_sample_budget_is_a_random_point_of_each_pixel() {
     assert!(a > 0.0 && a != b, "{a} {b}");
 }
 
+/// Ctrl-C while a reference renders keeps the replicates finished: two or
+/// more make a reference of fewer samples (its own error measured as
+/// usual), written before the exit status of an interrupt; fewer make
+/// none. Each finished replicate is reported, which is when the test
+/// presses Ctrl-C.
+#[test]
+#[cfg(unix)]
+fn an_interrupted_reference_keeps_the_replicates_finished() {
+    use std::io::{BufRead, BufReader, Read};
+    let dir = scratch("converge_interrupted");
+    // Ctrl-C once stderr has said `when`; returns the exit status, stderr
+    // and stdout. 8 replicates of 128 samples at -m 5: each takes a good
+    // fraction of a second, far more than a signal takes to arrive.
+    let interrupt = |when: &str, name: &str| {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_wavepath"))
+            .current_dir(&dir)
+            .args([
+                "converge",
+                "--make-reference",
+                "-s",
+                "1024",
+                "-m",
+                "5",
+                "-r",
+                "160",
+                "120",
+                "-t",
+                "1",
+                "--ref",
+                name,
+                SCENE,
+            ])
+            .stderr(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut err = BufReader::new(child.stderr.take().unwrap());
+        let mut said = String::new();
+        while !said.contains(when) {
+            let before = said.len();
+            err.read_line(&mut said).unwrap();
+            assert!(said.len() > before, "stderr ended: {said}");
+        }
+        let killed = Command::new("kill")
+            .args(["-INT", &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(killed.success());
+        err.read_to_string(&mut said).unwrap();
+        let o = child.wait_with_output().unwrap();
+        (o.status.code(), said, text(&o.stdout))
+    };
+
+    let (status, err, out) = interrupt("replicate 2 of 8 done", "r.exr");
+    assert_eq!(status, Some(130), "{err}");
+    let kept = err
+        .split("interrupted: the reference holds the ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|k| k.parse::<u32>().ok())
+        .unwrap_or_else(|| panic!("no kept replicates said: {err}"));
+    assert!((2..8).contains(&kept), "{err}");
+    assert!(own_rel_mse(&out, kept) > 0.0, "{out}");
+    let reference = read_image(&dir.join("r.exr")).unwrap();
+    assert!(reference.samples.iter().all(|&n| n == 128 * kept));
+
+    let (status, err, _) = interrupt("rendering the reference", "none.exr");
+    assert_eq!(status, Some(130), "{err}");
+    assert!(
+        err.contains("interrupted: no reference written (0 of 8 replicates finished"),
+        "{err}"
+    );
+    assert!(!dir.join("none.exr").exists());
+}
+
 /// A measurement whose every error is 0 (at `-m 0` the middle of the box
 /// that a small image shows emits nothing: every render is black, as is
 /// the reference) writes its CSV and says why there is no plot, instead of

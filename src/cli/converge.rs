@@ -620,15 +620,30 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         let area = settings.area();
         let mut replicates = replicates::Replicates::new(area.width, area.height);
         let mut secs = 0.0;
+        let mut interrupted = false;
         for k in 0..parts {
             settings.seed = seed.wrapping_add(k.wrapping_mul(0x9e37_79b9));
             let (out, s, _) = render(&settings);
             secs += s;
             if !out.complete {
-                eprintln!("interrupted: no reference written");
-                return Ok(super::EXIT_INTERRUPTED);
+                interrupted = true;
+                break;
             }
             replicates.add(&out.image);
+            if chatty {
+                eprintln!("replicate {} of {parts} done in {s:.1} s", k + 1);
+            }
+        }
+        // Ctrl-C: the replicates finished make a reference of fewer
+        // samples, as good as one asked for with a smaller -s, when there
+        // are two to measure its spread by.
+        let done = replicates.count();
+        if interrupted && done < 2 {
+            eprintln!(
+                "interrupted: no reference written ({done} of {parts} replicates finished; a \
+                 reference takes two)"
+            );
+            return Ok(super::EXIT_INTERRUPTED);
         }
         let combined = replicates.combine();
         let bad = combined.image.non_finite_count();
@@ -643,7 +658,8 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
             .iter()
             .map(|(n, v)| format!("{n}={v}"))
             .collect();
-        // -s 2 at least, so two replicates at least: a spread to measure.
+        // -s 2 at least, so two replicates at least (or an interrupted
+        // reference of two finished): a spread to measure.
         let own = combined
             .rel_mse
             .expect("a reference has two replicates or more");
@@ -651,11 +667,15 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         let note = (REFERENCE_NOTE.to_string(), pairs.join(";"));
         output::write_exr_with_error(&combined.image, &reference_path, &[note])?;
         say!(
-            "wrote {} ({} spp in {secs:.1} s); its own relMSE, measured from {parts} \
+            "wrote {} ({} spp in {secs:.1} s); its own relMSE, measured from {done} \
              independent replicates: {own:.3e}",
             reference_path.display(),
-            parts * settings.spp
+            done * settings.spp
         );
+        if interrupted {
+            eprintln!("interrupted: the reference holds the {done} of {parts} replicates finished");
+            return Ok(super::EXIT_INTERRUPTED);
+        }
         return Ok(0);
     };
 

@@ -68,6 +68,11 @@ impl Replicates {
         }
     }
 
+    /// Replicates added so far.
+    pub fn count(&self) -> u32 {
+        self.count
+    }
+
     /// Folds in one more replicate.
     ///
     /// # Panics
