@@ -378,6 +378,25 @@ fn adaptive_and_fixed_sampling_agree() {
     let est = channel(&adaptive, 1);
     // Stopping when the interval is small biases by far less than the tolerance.
     assert_unbiased("furnace, adaptive", &est, &vec![expected; est.len()], 0.01);
+
+    // Tests further apart than the renderer's largest pass (64 samples):
+    // still every 96 samples exactly, the passes between them summed in.
+    s.adaptive = Some(Adaptive {
+        samples_per_batch: 96,
+        tolerance: 0.05,
+    });
+    let adaptive = render(&scene, &s, 2);
+    assert!(
+        adaptive
+            .samples
+            .iter()
+            .all(|&n| [96, 192, 256].contains(&n)),
+        "{:?}",
+        adaptive.samples
+    );
+    assert!(adaptive.samples.iter().any(|&n| n < 256));
+    let est = channel(&adaptive, 1);
+    assert_unbiased("furnace, adaptive", &est, &vec![expected; est.len()], 0.01);
 }
 
 #[test]

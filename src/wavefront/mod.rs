@@ -39,7 +39,12 @@ use generate::{CameraRays, PassQueue};
 use paths::{Paths, ShadowRays};
 pub use stats::{Stage, Stats};
 
-/// Largest pass when sampling is not adaptive (bounds the slot buffer).
+/// Most samples per pixel in one pass, whatever `-a` asks: bounds the
+/// slot buffer (a pass's radiance, kept until it is summed in sample
+/// order) to 64 × 12 bytes per pixel of the tile. A convergence test
+/// every `samples_per_batch` above that spans several passes; as the film
+/// sums each pixel's samples one by one in sample order, the split
+/// changes no bit.
 const MAX_PASS: u32 = 64;
 
 /// What to render and how.
@@ -251,7 +256,8 @@ impl<'a> Renderer<'a> {
         paths.truncate(0);
         cost.resize(capacity, 0);
         let mut active: Vec<u32> = (0..tile.pixel_count() as u32).collect();
-        let pass_size = settings
+        // Samples between convergence tests.
+        let test_every = settings
             .adaptive
             .map_or(MAX_PASS, |a| a.samples_per_batch)
             .max(1);
@@ -262,7 +268,9 @@ impl<'a> Renderer<'a> {
             if cancel.load(Ordering::Relaxed) {
                 return (film, stats, false);
             }
-            let n_pass = pass_size.min(settings.spp - taken);
+            let n_pass = (test_every - taken % test_every)
+                .min(MAX_PASS)
+                .min(settings.spp - taken);
             slots.clear();
             slots.resize(active.len() * n_pass as usize, Vec3::ZERO);
             let mut queue = PassQueue {
@@ -335,7 +343,9 @@ impl<'a> Renderer<'a> {
                 film.add(pixel as usize, samples);
             }
             taken += n_pass;
-            if let Some(adaptive) = settings.adaptive {
+            if let Some(adaptive) = settings.adaptive
+                && taken % test_every == 0
+            {
                 active.retain(|&p| {
                     let p = p as usize;
                     !converged(
