@@ -841,6 +841,49 @@ fn transform_overflows_the_mesh() {
     );
 }
 
+/// Transforms finite node by node whose product overflows (a scale of
+/// 1e20 around a translation of 1e20), and points of a light or camera that
+/// overflow under a finite transform (a unit step added to a coordinate
+/// near f32's limit): refused, not a light or camera at infinity.
+#[test]
+fn composed_transforms_that_overflow() {
+    let text = edits(&[
+        (
+            "<node id=\"lamp-node\">\n        <translate>0 3 0</translate>",
+            "<node id=\"outer\"><scale>1e20 1e20 1e20</scale><node id=\"lamp-node\">\n        <translate>0 1e20 0</translate>",
+        ),
+        (
+            "<instance_light url=\"#lamp\"/>\n      </node>",
+            "<instance_light url=\"#lamp\"/>\n      </node></node>",
+        ),
+    ]);
+    expect_at(
+        &text,
+        "node",
+        "<node id=\"lamp-node\">",
+        "composed with its parents', overflows",
+    );
+    // z axis −3e38 and z translation 3e38: T·(0,0,−1,1) is 6e38.
+    let reaching = "<matrix>1 0 0 0 0 1 0 0 0 0 -3e38 3e38 0 0 0 1</matrix>";
+    let text = edits(&[
+        ("<translate>0 3 0</translate>", reaching),
+        ("<point>", "<directional>"),
+        ("</point>", "</directional>"),
+    ]);
+    expect_at(
+        &text,
+        "instance_light",
+        "<instance_light url=",
+        "the light's placement overflows",
+    );
+    expect_at(
+        &edit("<matrix>1 0 0 0 0 1 0 0 0 0 1 5 0 0 0 1</matrix>", reaching),
+        "instance_camera",
+        "<instance_camera url=",
+        "view direction overflows",
+    );
+}
+
 #[test]
 fn invalid_field_of_view() {
     for fov in ["0", "-10", "180", "360"] {
@@ -1036,6 +1079,76 @@ fn unusable_material_records_fall_back_to_grey_with_a_warning() {
     let e = load_err(&text);
     assert_eq!(e.element.as_deref(), Some("radiance"), "{e}");
     assert!(e.message.contains("negative"), "{e}");
+}
+
+/// Numbers a material record holds are checked as the diffuse colour is,
+/// though the record itself is not rendered yet (its fallback albedo comes
+/// from them): no negative reflectance, transmittance, roughness or k, no
+/// alpha, ior or eta of 0 or less; a reflectance above 1 is kept with a
+/// warning.
+#[test]
+fn material_records_hold_physical_numbers() {
+    let with_record = |record: &str| {
+        edit(
+            "    </effect>",
+            &format!(
+                r#"      <extra><technique profile="CGL">{record}</technique></extra>
+    </effect>"#
+            ),
+        )
+    };
+    let metal = "<eta>0.2 0.9 1.1</eta><k>3.9 2.4 2.2</k>";
+    for (record, element, words) in [
+        (
+            "<mirror><reflectance>1 -1 1</reflectance></mirror>".to_string(),
+            "reflectance",
+            "negative component",
+        ),
+        (
+            "<glass><transmittance>-1 1 1</transmittance></glass>".into(),
+            "transmittance",
+            "negative component",
+        ),
+        (
+            "<glass><roughness>-0.1</roughness></glass>".into(),
+            "roughness",
+            "must not be negative",
+        ),
+        (
+            "<refraction><ior>0</ior></refraction>".into(),
+            "ior",
+            "must be positive",
+        ),
+        (
+            format!("<microfacet><alpha>0</alpha>{metal}</microfacet>"),
+            "alpha",
+            "must be positive",
+        ),
+        (
+            "<microfacet><eta>0.2 -0.9 1.1</eta><k>1 1 1</k></microfacet>".into(),
+            "eta",
+            "must be positive",
+        ),
+        (
+            "<microfacet><eta>0.2 0.9 1.1</eta><k>1 -1 1</k></microfacet>".into(),
+            "k",
+            "negative component",
+        ),
+    ] {
+        let e = load_err(&with_record(&record));
+        assert_eq!(e.element.as_deref(), Some(element), "{record}: {e}");
+        assert!(e.message.contains(words), "{record}: {e}");
+    }
+    let text = with_record("<mirror><reflectance>1 3e38 1</reflectance></mirror>");
+    let scene = load_str(&text, Path::new(NAME)).unwrap();
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("reflectance has a component of 3e38: above 1")),
+        "{:?}",
+        scene.warnings
+    );
 }
 
 #[test]

@@ -130,6 +130,37 @@ fn compare_refuses_bad_input_naming_the_file() {
     let o = wavepath(&["compare", &s(&small), &s(&good)]);
     assert_refused(&o, "small.png");
     assert!(text(&o.stderr).contains("good.exr"));
+    // Standard errors that are not numbers a variance can be made of: the
+    // file written channel by channel, as wavepath never writes them.
+    for (name, bad) in [("nan", f32::NAN), ("negative", -1.0), ("huge", 3e38)] {
+        use exr::prelude::*;
+        let n = 16 * 12;
+        let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+        for c in ["B", "G", "R"] {
+            channels.push(AnyChannel::new(c, FlatSamples::F32(vec![0.5; n])));
+        }
+        channels.push(AnyChannel::new("samples", FlatSamples::F32(vec![8.0; n])));
+        for c in ["stderr.R", "stderr.G", "stderr.B"] {
+            let mut se = vec![0.01; n];
+            if c == "stderr.G" {
+                se[16 + 1] = bad;
+            }
+            channels.push(AnyChannel::new(c, FlatSamples::F32(se)));
+        }
+        let layer = Layer::new(
+            (16, 12),
+            LayerAttributes::default(),
+            Encoding::FAST_LOSSLESS,
+            AnyChannels::sort(channels),
+        );
+        let path = dir.join(format!("stderr_{name}.exr"));
+        Image::from_layer(layer).write().to_file(&path).unwrap();
+        let o = wavepath(&["compare", &s(&good), &s(&path)]);
+        assert_refused(
+            &o,
+            &format!("stderr_{name}.exr: channel stderr.G at pixel (1, 1) is "),
+        );
+    }
     // A usage error is clap's: status 2, with the usage line.
     let o = wavepath(&["compare", &s(&good)]);
     assert_eq!(o.status.code(), Some(2));

@@ -446,7 +446,9 @@ pub fn run() -> Result<i32> {
     if bad > 0 {
         // Image files get 0 there; said, so that it is not taken for black.
         eprintln!(
-            "warning: {bad} pixels are NaN or infinite (radiance beyond f32's range?); written as 0"
+            "warning: {bad} pixels of {} are NaN or infinite (radiance beyond f32's range: a \
+             colour or emission of the scene too large?); written as 0",
+            scene_name.display()
         );
     }
     output::write_image(&result.image, &output_path, args.tonemap, with_rate)?;

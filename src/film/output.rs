@@ -368,8 +368,29 @@ fn read_exr(path: &Path) -> Result<Image> {
         }
     }
     if let [Some(r), Some(g), Some(b)] = STDERR_CHANNELS.map(find) {
-        for (dst, v) in image.variance.iter_mut().zip(rgb_values([r, g, b])) {
-            *dst = v.powf(2.0);
+        for (i, (dst, v)) in image
+            .variance
+            .iter_mut()
+            .zip(rgb_values([r, g, b]))
+            .enumerate()
+        {
+            let variance = v * v;
+            // A standard error is a finite non-negative number whose square
+            // is too (a NaN here would turn every error figure into NaN).
+            if !(v.min_element() >= 0.0 && variance.is_finite()) {
+                let (x, y) = (i % w, i / w);
+                let c = (0..3)
+                    .find(|&c| !(v[c] >= 0.0 && variance[c].is_finite()))
+                    .unwrap_or(0);
+                bail!(
+                    "{}: channel {} at pixel ({x}, {y}) is {}, not a standard error (a finite \
+                     number ≥ 0 whose square is finite)",
+                    path.display(),
+                    STDERR_CHANNELS[c],
+                    v[c]
+                );
+            }
+            *dst = variance;
         }
     }
     Ok(image)

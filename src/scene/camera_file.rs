@@ -86,6 +86,8 @@ impl CameraFile {
 
 /// Reads a settings file; the error names the value at fault.
 pub fn parse(text: &str) -> Result<CameraFile, String> {
+    // A byte-order mark, as some editors write, is not part of a number.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let words: Vec<&str> = text.split_whitespace().collect();
     if words.len() != 28 && words.len() != 30 {
         return Err(format!(
@@ -237,6 +239,9 @@ mod tests {
         // With the lens values newer files add.
         let with_lens = format!("{}4.7 0.25\n", write(&c, 800, 600));
         assert_eq!(parse(&with_lens).unwrap(), file);
+        // Saved by an editor that starts files with a byte-order mark.
+        let with_bom = format!("\u{feff}{}", write(&c, 800, 600));
+        assert_eq!(parse(&with_bom).unwrap(), file);
     }
 
     /// A file laid out as the viewer writes it, with a matrix that is not

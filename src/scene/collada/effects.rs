@@ -19,19 +19,68 @@ pub fn renderer_technique<'a, 'i>(node: Node<'a, 'i>) -> Option<Node<'a, 'i>> {
 }
 
 /// Reads an optional colour child, defaulting when absent.
-fn color_or(src: &Source, node: Node, name: &str, default: Vec3) -> Result<Vec3, LoadError> {
+/// The colour `node` holds as a reflectance or transmittance (`what`):
+/// refused with a negative component, kept with a warning above 1 (as the
+/// reference keeps it: a test scene may want it).
+fn fraction_colour(
+    src: &Source,
+    node: Node,
+    what: &str,
+    warnings: &mut Vec<String>,
+) -> Result<Vec3, LoadError> {
+    let colour = src.vec3(node)?;
+    if colour.min_element() < 0.0 {
+        return Err(src.error(node, format!("{what} {colour} has a negative component")));
+    }
+    if colour.max_element() > 1.0 {
+        warnings.push(src.warning(
+            node,
+            format!(
+                "{what} has a component of {}: above 1, it reflects more light than it receives, and with several bounces the image can grow without bound",
+                short(colour.max_element())
+            ),
+        ));
+    }
+    Ok(colour)
+}
+
+/// `node`'s child `name` as a [`fraction_colour`], or `default`.
+fn fraction_or(
+    src: &Source,
+    node: Node,
+    name: &str,
+    default: Vec3,
+    warnings: &mut Vec<String>,
+) -> Result<Vec3, LoadError> {
     match child(node, name) {
-        Some(c) => src.vec3(c),
+        Some(c) => fraction_colour(src, c, name, warnings),
         None => Ok(default),
     }
 }
 
-fn scalar_or(src: &Source, node: Node, name: &str, default: f32) -> Result<f32, LoadError> {
+/// `node`'s child `name` as a number that `valid` accepts (`rule` says
+/// what that is), or `default`.
+fn scalar_or(
+    src: &Source,
+    node: Node,
+    name: &str,
+    default: f32,
+    (valid, rule): (fn(f32) -> bool, &str),
+) -> Result<f32, LoadError> {
     match child(node, name) {
-        Some(c) => src.scalar(c),
+        Some(c) => {
+            let x = src.scalar(c)?;
+            if !valid(x) {
+                return Err(src.error(c, format!("{name} {x} {rule}")));
+            }
+            Ok(x)
+        }
         None => Ok(default),
     }
 }
+
+const NON_NEGATIVE: (fn(f32) -> bool, &str) = (|x| x >= 0.0, "must not be negative");
+const POSITIVE: (fn(f32) -> bool, &str) = (|x| x > 0.0, "must be positive");
 
 /// The material a `<material>` element describes.
 pub fn parse_material(
@@ -98,24 +147,35 @@ fn parse_effect(
                 }
             }
             "mirror" => Material::Mirror {
-                reflectance: color_or(src, record, "reflectance", one)?,
+                reflectance: fraction_or(src, record, "reflectance", one, warnings)?,
             },
             "glass" => Material::Glass {
-                reflectance: color_or(src, record, "reflectance", one)?,
-                transmittance: color_or(src, record, "transmittance", one)?,
-                roughness: scalar_or(src, record, "roughness", 0.0)?,
-                ior: scalar_or(src, record, "ior", 1.5)?,
+                reflectance: fraction_or(src, record, "reflectance", one, warnings)?,
+                transmittance: fraction_or(src, record, "transmittance", one, warnings)?,
+                roughness: scalar_or(src, record, "roughness", 0.0, NON_NEGATIVE)?,
+                ior: scalar_or(src, record, "ior", 1.5, POSITIVE)?,
             },
             "refraction" => Material::Refraction {
-                transmittance: color_or(src, record, "transmittance", one)?,
-                roughness: scalar_or(src, record, "roughness", 0.0)?,
-                ior: scalar_or(src, record, "ior", 1.5)?,
+                transmittance: fraction_or(src, record, "transmittance", one, warnings)?,
+                roughness: scalar_or(src, record, "roughness", 0.0, NON_NEGATIVE)?,
+                ior: scalar_or(src, record, "ior", 1.5, POSITIVE)?,
             },
-            "microfacet" => Material::Microfacet {
-                alpha: scalar_or(src, record, "alpha", 0.5)?,
-                eta: src.vec3(src.require(record, "eta")?)?,
-                k: src.vec3(src.require(record, "k")?)?,
-            },
+            "microfacet" => {
+                let (eta, k) = (src.require(record, "eta")?, src.require(record, "k")?);
+                let (eta_value, k_value) = (src.vec3(eta)?, src.vec3(k)?);
+                // A conductor's complex index of refraction: n > 0, k ≥ 0.
+                if eta_value.min_element() <= 0.0 {
+                    return Err(src.error(eta, format!("eta {eta_value} must be positive")));
+                }
+                if k_value.min_element() < 0.0 {
+                    return Err(src.error(k, format!("k {k_value} has a negative component")));
+                }
+                Material::Microfacet {
+                    alpha: scalar_or(src, record, "alpha", 0.5, POSITIVE)?,
+                    eta: eta_value,
+                    k: k_value,
+                }
+            }
             other => {
                 return unusable(
                     format!(
@@ -125,11 +185,6 @@ fn parse_effect(
                 );
             }
         };
-        if let Material::Glass { ior, .. } | Material::Refraction { ior, .. } = material
-            && ior <= 0.0
-        {
-            return Err(src.error(record, format!("ior {ior} must be positive")));
-        }
         return Ok(material);
     }
 
@@ -145,26 +200,9 @@ fn parse_effect(
             .find_map(|model| path(t, &[model, "diffuse"]))
     });
     match diffuse.and_then(|d| child(d, "color")) {
-        Some(color) => {
-            let albedo = src.vec3(color)?;
-            if albedo.min_element() < 0.0 {
-                return Err(src.error(
-                    color,
-                    format!("diffuse colour {albedo} has a negative component"),
-                ));
-            }
-            if albedo.max_element() > 1.0 {
-                // Kept, as the reference keeps it: a test scene may want it.
-                warnings.push(src.warning(
-                    color,
-                    format!(
-                        "diffuse colour has a component of {}: above 1, it reflects more light than it receives, and with several bounces the image can grow without bound",
-                        short(albedo.max_element())
-                    ),
-                ));
-            }
-            Ok(Material::Diffuse { albedo })
-        }
+        Some(color) => Ok(Material::Diffuse {
+            albedo: fraction_colour(src, color, "diffuse colour", warnings)?,
+        }),
         None => {
             warnings.push(src.warning(
                 effect,

@@ -178,6 +178,12 @@ fn xml_error(text: &str, path: &Path, e: roxmltree::Error) -> LoadError {
     error
 }
 
+/// The camera's view direction from its node's world transform:
+/// T·(0,0,−1,1), the translation included on purpose (see camera.rs).
+fn camera_view_dir(world: &Mat4) -> Vec3 {
+    (*world * Vec4::new(0.0, 0.0, -1.0, 1.0)).truncate()
+}
+
 /// The camera node as found: world transform and optics.
 struct CameraNode {
     world: Mat4,
@@ -293,6 +299,15 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
     ) -> Result<(), LoadError> {
         let src = self.src;
         let world = *parent * transform::node_local_transform(src, node, &mut self.warnings)?;
+        // Each node's own transform is finite (checked there); their
+        // product can still overflow (a scale of 1e20 around a translation
+        // of 1e20), which would place lights and cameras at infinity.
+        if !world.is_finite() {
+            return Err(src.error(
+                node,
+                "the node's transform, composed with its parents', overflows to a non-finite value",
+            ));
+        }
         for item in node.children().filter(|c| c.is_element()) {
             match item.tag_name().name() {
                 "node" => self.visit(item, &world, depth + 1)?,
@@ -312,6 +327,12 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
                 "instance_camera" => {
                     let camera = self.ids.resolve(src, item, "url", "camera")?;
                     let optics = self.perspective(camera)?;
+                    if !camera_view_dir(&world).is_finite() {
+                        return Err(src.error(
+                            item,
+                            "the camera's view direction overflows to a non-finite value under its node's transform",
+                        ));
+                    }
                     // The last camera in the file wins.
                     self.camera = Some(CameraNode { world, optics });
                 }
@@ -593,11 +614,7 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
             }
         }
         let (view_dir, optics) = match &self.camera {
-            // T·(0,0,−1,1): the translation is included on purpose (see camera.rs).
-            Some(c) => (
-                (c.world * Vec4::new(0.0, 0.0, -1.0, 1.0)).truncate(),
-                c.optics,
-            ),
+            Some(c) => (camera_view_dir(&c.world), c.optics),
             None => {
                 self.warnings
                     .push(format!("{path}: no camera; viewing from +z"));
