@@ -1139,6 +1139,13 @@ fn material_records_hold_physical_numbers() {
         assert_eq!(e.element.as_deref(), Some(element), "{record}: {e}");
         assert!(e.message.contains(words), "{record}: {e}");
     }
+    // k = 0 (no absorption) and roughness 0 (smooth) are physical.
+    for record in [
+        "<microfacet><eta>1.5 1.5 1.5</eta><k>0 0 0</k></microfacet>",
+        "<glass><roughness>0</roughness></glass>",
+    ] {
+        load_str(&with_record(record), Path::new(NAME)).unwrap_or_else(|e| panic!("{record}: {e}"));
+    }
     let text = with_record("<mirror><reflectance>1 3e38 1</reflectance></mirror>");
     let scene = load_str(&text, Path::new(NAME)).unwrap();
     assert!(

@@ -143,7 +143,7 @@ fn compare_refuses_bad_input_naming_the_file() {
         for c in ["stderr.R", "stderr.G", "stderr.B"] {
             let mut se = vec![0.01; n];
             if c == "stderr.G" {
-                se[16 + 1] = bad;
+                se[16 + 2] = bad;
             }
             channels.push(AnyChannel::new(c, FlatSamples::F32(se)));
         }
@@ -158,7 +158,7 @@ fn compare_refuses_bad_input_naming_the_file() {
         let o = wavepath(&["compare", &s(&good), &s(&path)]);
         assert_refused(
             &o,
-            &format!("stderr_{name}.exr: channel stderr.G at pixel (1, 1) is "),
+            &format!("stderr_{name}.exr: channel stderr.G at pixel (2, 1) is "),
         );
     }
     // A usage error is clap's: status 2, with the usage line.
