@@ -196,9 +196,8 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
     if let Some((noise, how)) = super::converge::reference_noise(note.as_ref(), &reference) {
         say!("reference noise: its own relMSE is about {noise:.3e} ({how})");
     }
-    let without_errors = [(&image, &args.image), (&reference, &args.reference)]
-        .into_iter()
-        .find(|(im, _)| !has_error(im));
+    let files = [(&image, &args.image), (&reference, &args.reference)];
+    let without_errors = files.into_iter().find(|(im, _)| !has_error(im));
     if let Some((_, path)) = without_errors.filter(|_| args.same_estimator) {
         eprintln!(
             "warning: --same-estimator: no same-mean test, as {} has no standard-error \
@@ -208,33 +207,34 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
     }
     if without_errors.is_none() {
         let alpha = 1e-3;
-        let files = [(&image, &args.image), (&reference, &args.reference)];
         // The fewest samples a pixel holds, where the file records counts
         // (0: not recorded).
         let fewest = |im: &Image| im.samples.iter().copied().filter(|&n| n > 0).min();
-        let mut own_variances = !args.same_estimator;
+        let uncounted: Vec<&PathBuf> = files
+            .iter()
+            .filter(|(im, _)| fewest(im).is_none())
+            .map(|(_, path)| *path)
+            .collect();
         if args.same_estimator {
-            for (im, path) in files {
-                if fewest(im).is_none() {
-                    eprintln!(
-                        "warning: --same-estimator needs sample counts in both files, and {} \
-                         has none: each file's own variance is used",
-                        path.display()
-                    );
-                    own_variances = true;
-                }
+            for path in &uncounted {
+                eprintln!(
+                    "warning: --same-estimator needs sample counts in both files, and {} \
+                     has none: each file's own variance is used",
+                    path.display()
+                );
             }
         }
+        // Each file's own variances are what the per-pixel test uses.
+        let own_variances = !args.same_estimator || !uncounted.is_empty();
         for (im, path) in files {
-            match fewest(im) {
-                Some(n) if own_variances && n < FEW_SAMPLES => eprintln!(
+            if let Some(n) = fewest(im).filter(|&n| own_variances && n < FEW_SAMPLES) {
+                eprintln!(
                     "warning: {}: some pixels hold only {n} samples, too few to estimate their \
                      variance: the per-pixel test may call equal images different; for images \
                      of one estimator, --same-estimator takes the larger of the two files' \
                      estimates",
                     path.display()
-                ),
-                _ => {}
+                );
             }
         }
         let t = metrics::z_test(&image, &reference, alpha, args.same_estimator)?;

@@ -620,13 +620,11 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         let area = settings.area();
         let mut replicates = replicates::Replicates::new(area.width, area.height);
         let mut secs = 0.0;
-        let mut interrupted = false;
         for k in 0..parts {
             settings.seed = seed.wrapping_add(k.wrapping_mul(0x9e37_79b9));
             let (out, s, _) = render(&settings);
             secs += s;
             if !out.complete {
-                interrupted = true;
                 break;
             }
             replicates.add(&out.image);
@@ -638,6 +636,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         // samples, as good as one asked for with a smaller -s, when there
         // are two to measure its spread by.
         let done = replicates.count();
+        let interrupted = done < parts;
         if interrupted && done < 2 {
             eprintln!(
                 "interrupted: no reference written ({done} of {parts} replicates finished; a \

@@ -377,11 +377,8 @@ fn read_exr(path: &Path) -> Result<Image> {
             let variance = v * v;
             // A standard error is a finite non-negative number whose square
             // is too (a NaN here would turn every error figure into NaN).
-            if !(v.min_element() >= 0.0 && variance.is_finite()) {
+            if let Some(c) = (0..3).find(|&c| !(v[c] >= 0.0 && variance[c].is_finite())) {
                 let (x, y) = (i % w, i / w);
-                let c = (0..3)
-                    .find(|&c| !(v[c] >= 0.0 && variance[c].is_finite()))
-                    .unwrap_or(0);
                 bail!(
                     "{}: channel {} at pixel ({x}, {y}) is {}, not a standard error (a finite \
                      number ≥ 0 whose square is finite)",

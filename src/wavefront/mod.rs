@@ -55,10 +55,10 @@ pub struct RenderSettings {
     /// Camera samples per pixel (the maximum when adaptive).
     pub spp: u32,
     /// With one sample per pixel, trace each pixel's centre (the CS184
-    /// renderer's rule, so that a 1-spp render matches its pixel for pixel)
-    /// rather than a random point of the pixel. An estimate of the pixel's average
-    /// (`converge`'s renders, whose reference averages over each pixel)
-    /// turns this off.
+    /// renderer's rule, so that a 1-spp render matches its pixel for
+    /// pixel) rather than a random point of the pixel. An estimate of the
+    /// pixel's average (`converge`'s renders, whose reference averages
+    /// over each pixel) turns this off.
     pub centre_single_sample: bool,
     pub adaptive: Option<Adaptive>,
     pub seed: u32,

@@ -18,7 +18,6 @@ pub fn renderer_technique<'a, 'i>(node: Node<'a, 'i>) -> Option<Node<'a, 'i>> {
         .find(|t| matches!(t.attribute("profile"), Some("CGL") | Some("CMU462")))
 }
 
-/// Reads an optional colour child, defaulting when absent.
 /// The colour `node` holds as a reflectance or transmittance (`what`):
 /// refused with a negative component, kept with a warning above 1 (as the
 /// reference keeps it: a test scene may want it).

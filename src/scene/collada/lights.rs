@@ -48,19 +48,19 @@ pub fn parse_light(
     let p = apply(t, Vec4::W);
     // The node's transform is finite, but a light's points under it can
     // still overflow (a translation near f32's limit plus a unit step).
-    let overflows = |v: &[Vec3]| {
-        v.iter().any(|v| !v.is_finite()).then(|| {
-            src.error(
+    let finite = |v: &[Vec3]| {
+        if v.iter().all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(src.error(
                 instance,
                 "the light's placement overflows to a non-finite value under its node's transform",
-            )
-        })
+            ))
+        }
     };
     let light = match kind {
         "point" => {
-            if let Some(e) = overflows(&[p]) {
-                return Err(e);
-            }
+            finite(&[p])?;
             Light::Point {
                 position: p,
                 intensity: spectrum,
@@ -70,9 +70,7 @@ pub fn parse_light(
             // The reference transforms the direction with w = 1, so the node's
             // translation leaks into it; reproduced for identical lighting.
             let d = apply(t, Vec4::new(0.0, 0.0, -1.0, 1.0));
-            if let Some(e) = overflows(&[d]) {
-                return Err(e);
-            }
+            finite(&[d])?;
             let Some(to_light) = normalize_any_scale(d) else {
                 return Err(src.error(
                     instance,
@@ -88,9 +86,7 @@ pub fn parse_light(
             let normal = apply(t, Vec4::new(0.0, 0.0, -1.0, 1.0)) - p;
             let dim_x = apply(t, Vec4::new(-1.0, 0.0, 0.0, 1.0)) - p;
             let dim_y = apply(t, Vec4::new(0.0, 1.0, 0.0, 1.0)) - p;
-            if let Some(e) = overflows(&[p, normal, dim_x, dim_y]) {
-                return Err(e);
-            }
+            finite(&[p, normal, dim_x, dim_y])?;
             // At any scale: the squared length of a 1e-12 light's
             // dim_x × dim_y underflows f32, of a 1e20 one's normal overflows.
             let (Some(normal), Some(_)) = (
