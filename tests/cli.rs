@@ -419,7 +419,8 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
             .output()
             .expect("run wavepath under sh")
     };
-    // Refused with exit status `code`, the message starting `start` and
+    // Refused with exit status `code` (2: -r is a flag every command
+    // refuses with its usage line), the message starting `start` and
     // giving the memory available.
     let refused = |args: &[&str], code: i32, start: &str| {
         let o = limited(args);
@@ -465,7 +466,7 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
             ref_arg,
             scene,
         ],
-        1,
+        2,
         "error: -r 4000 4000: a replicate and the replicates' running sums alone need \
          1.0 GiB (68 bytes per pixel), and ",
     );
@@ -474,7 +475,7 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
     // image, so a render's PNG check does not apply to it).
     refused(
         &[&["converge"], &big[..], &["--ref", ref_arg, scene]].concat(),
-        1,
+        2,
         "error: -r 8000 8000: the reference and a render alone need 3.3 GiB \
          (56 bytes per pixel), and ",
     );

@@ -56,6 +56,19 @@ fn render(out: &Path, w: u32, h: u32, spp: u32, seed: u32) {
     assert!(o.status.success(), "{}", text(&o.stderr));
 }
 
+/// Asserts a refused flag value: status 2, the message `says`, the usage
+/// line of `command` (the command refusing it, not another), and no panic.
+fn assert_usage_error(o: &Output, command: &str, says: &str) {
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains(says), "message does not say {says}: {err}");
+    assert!(
+        err.contains(&format!("Usage: wavepath {command} ")),
+        "no usage line of wavepath {command}: {err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
+
 /// Asserts a failure whose message names `file`, and no panic.
 fn assert_refused(o: &Output, file: &str) {
     let err = text(&o.stderr);
@@ -695,7 +708,11 @@ fn converge_refuses_bad_references_naming_the_file() {
         &dir,
         &["converge", "-r", "8", "6", "--ref", "ref.png", SCENE],
     );
-    assert_refused(&o, "ref.png");
+    assert_usage_error(
+        &o,
+        "converge",
+        "--ref ref.png: the reference must be an .exr file",
+    );
     render(&dir.join("big.exr"), 16, 12, 1, 0);
     let o = wavepath_in(
         &dir,
@@ -732,7 +749,11 @@ fn converge_refuses_bad_references_naming_the_file() {
             "converge", "-r", "16", "12", "--ref", "big.exr", "--plot", "plot.png", SCENE,
         ],
     );
-    assert_refused(&o, "plot.png");
+    assert_usage_error(
+        &o,
+        "converge",
+        "--plot plot.png: the plot is written as SVG",
+    );
     assert!(!dir.join("plot.png").exists());
 }
 
@@ -912,11 +933,18 @@ fn compare_takes_a_positive_diff_scale_only() {
     };
     for bad in ["0", "-1", "inf", "NaN"] {
         let o = compare(bad);
-        let err = text(&o.stderr);
-        assert_eq!(o.status.code(), Some(1), "{bad}: {err}");
         let says = format!("--diff-scale must be a positive number, got {bad}");
-        assert!(err.contains(&says), "{bad}: {err}");
+        assert_usage_error(&o, "compare", &says);
         assert!(!diff.exists(), "{bad}");
+    }
+    // --diff names a PNG that can be written, found out before comparing.
+    let paths = [&a, &b].map(|p| p.to_str().unwrap().to_string());
+    for (diff, says) in [
+        ("d.jpg", "--diff d.jpg: writes a PNG"),
+        ("no/such/d.png", "--diff no/such/d.png: there is no folder"),
+    ] {
+        let o = wavepath(&["compare", &paths[0], &paths[1], "--diff", diff]);
+        assert_usage_error(&o, "compare", says);
     }
     let o = compare("0.5");
     assert!(o.status.success(), "{}", text(&o.stderr));
@@ -1099,9 +1127,7 @@ fn converge_refuses_bad_budgets_and_targets() {
     let base = ["-q", "-r", "8", "6", "--ref", "ref.exr"];
     let refused = |flags: &[&str], says: &str| {
         let o = wavepath_in(&dir, &[&["converge"], &base[..], flags, &[SCENE]].concat());
-        let err = text(&o.stderr);
-        assert_eq!(o.status.code(), Some(1), "{flags:?}: {err}");
-        assert!(err.contains(says), "{flags:?}: {err}");
+        assert_usage_error(&o, "converge", says);
         assert!(!dir.join("converge.csv").exists(), "{flags:?}");
     };
     // (flag, value given, value as the message shows it)
@@ -1150,6 +1176,15 @@ fn converge_refuses_bad_budgets_and_targets() {
             &["--csv", "no/such/folder/c.csv"],
             "--csv no/such/folder/c.csv: there is no folder no/such/folder",
         ),
+        // The render's own flag checks, refused with converge's usage line.
+        (
+            &["-b", "-1"],
+            "-b: lens radius must be a non-negative number, got -1",
+        ),
+        (
+            &["--plot-csv", "c.csv"],
+            "--plot-csv needs --plot <FILE.svg>",
+        ),
     ] {
         refused(flags, says);
     }
@@ -1168,7 +1203,7 @@ fn converge_refuses_bad_budgets_and_targets() {
             SCENE,
         ],
     );
-    assert_refused(&o, "--ref no/such/r.exr: there is no folder");
+    assert_usage_error(&o, "converge", "--ref no/such/r.exr: there is no folder");
 
     // The help lists what converge uses, with the reference's default spp.
     let help = text(&wavepath(&["converge", "--help"]).stdout);

@@ -124,15 +124,22 @@ pub fn write_diff(
 /// Runs `wavepath compare`; `argv` starts with the subcommand's name.
 pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
     let args = CompareArgs::parse_from(argv);
+    let fail = super::usage_error::<CompareArgs>;
     if let Some(s) = args.diff_scale
         && !(s > 0.0 && s.is_finite())
     {
-        bail!("--diff-scale must be a positive number, got {s}");
+        fail(format!("--diff-scale must be a positive number, got {s}"));
     }
-    if let Some(d) = &args.diff
-        && Format::from_path(d).ok() != Some(Format::Png)
-    {
-        bail!("{}: --diff writes a PNG; name a .png file", d.display());
+    if let Some(d) = &args.diff {
+        if Format::from_path(d).ok() != Some(Format::Png) {
+            fail(format!(
+                "--diff {}: writes a PNG; name a .png file",
+                d.display()
+            ));
+        }
+        if let Some(why) = super::unwritable(d) {
+            fail(format!("--diff {}: {why}", d.display()));
+        }
     }
     let image = load(&args.image, args.tonemap)?;
     let reference = load(&args.reference, args.tonemap)?;

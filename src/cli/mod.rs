@@ -58,15 +58,22 @@ fn scene_path(args: &Args) -> &std::path::Path {
 /// Exits as clap does on a bad value of command `C`: `msg` with a usage
 /// hint, status 2.
 fn usage_error<C: CommandFactory>(msg: String) -> ! {
-    C::command()
+    exit_with_usage(C::command(), msg)
+}
+
+/// Exits as clap does on a bad flag value of `command`: `msg`, the
+/// command's usage line, status 2. Every command refuses its flags so,
+/// whatever it is; status 1 is for the files it reads.
+fn exit_with_usage(mut command: clap::Command, msg: String) -> ! {
+    command
         .error(clap::error::ErrorKind::ValueValidation, msg)
         .exit()
 }
 
 /// Checks what clap cannot: cross-field and float-valued flags.
-/// Exits with a usage hint on nonsense, like clap's own errors.
-fn validate(args: &Args) -> (RenderSettings, PathBuf, output::Format) {
-    let fail = usage_error::<Args>;
+/// Exits through `fail` (the calling command's usage error) on nonsense,
+/// like clap's own errors.
+fn validate(args: &Args, fail: fn(String) -> !) -> (RenderSettings, PathBuf, output::Format) {
     let adaptive = if args.no_adaptive {
         None
     } else {
@@ -359,7 +366,7 @@ pub fn run() -> Result<i32> {
         _ => {}
     }
     let args = Args::parse_from(argv);
-    let (settings, output_path, format) = validate(&args);
+    let (settings, output_path, format) = validate(&args, usage_error::<Args>);
     check_memory(&settings, format);
     let image = format!("-f {}", output_path.display());
     if let Some(why) = unwritable(&output_path) {
