@@ -645,16 +645,26 @@ fn non_finite_pixels_are_said_and_written_as_zero() {
 }
 
 /// A scene that nothing lights renders what it emits — here nothing, so
-/// black — exits 0 and says why, once; a light of colour 0 0 0 lights
-/// nothing and is said to. Emission alone (`-m 0`) needs no light and
-/// gets no warning, nor does a lit scene. (A W×H render is the central
+/// black — exits 0 and says why, once, at any `-m`; a light of colour
+/// 0 0 0 lights nothing and is said to. A lit scene gets no warning, nor
+/// does an unlit one with an emissive surface (it shows that surface). The
+/// renders trace camera rays only: where nothing emits, no shadow or
+/// continuation ray can bring light. (A W×H render is the central
 /// crop of the 800×600 view, so it is large enough to take in the objects.)
 #[test]
 fn a_scene_without_light_warns_once_and_renders_black() {
     let lit = include_str!("fixtures/minimal.dae");
     let dark = lit.replace("<color>1 1 1</color>", "<color>0 0 0</color>");
     let unlit = lit.replace("<instance_light url=\"#lamp\"/>", "");
-    assert!(dark != lit && unlit != lit, "the fixture changed");
+    let glowing = unlit.replace(
+        "</profile_COMMON>",
+        "</profile_COMMON><extra><technique profile=\"CGL\"><emission>\
+         <radiance>1 1 1</radiance></emission></technique></extra>",
+    );
+    assert!(
+        dark != lit && unlit != lit && glowing != unlit,
+        "the fixture changed"
+    );
     let cases = [
         ("lit", lit, "2", None),
         (
@@ -669,13 +679,19 @@ fn a_scene_without_light_warns_once_and_renders_black() {
             "2",
             Some("the scene has no lights"),
         ),
-        ("unlit-m0", unlit.as_str(), "0", None),
+        (
+            "unlit-m0",
+            unlit.as_str(),
+            "0",
+            Some("the scene has no lights"),
+        ),
+        ("glowing", glowing.as_str(), "2", None),
     ];
     for (name, text, depth, says) in cases {
         let (out, err) = render_text(name, text, &["-q", "-s", "2", "-m", depth]);
         let warnings: Vec<&str> = err
             .lines()
-            .filter(|l| l.contains("only emission seen directly"))
+            .filter(|l| l.contains("nothing emits, so the image is black"))
             .collect();
         let image = read_image(&out).unwrap();
         let brightest = image
@@ -695,9 +711,7 @@ fn a_scene_without_light_warns_once_and_renders_black() {
             }
             None => {
                 assert!(warnings.is_empty(), "{name}: {err}");
-                if depth != "0" {
-                    assert!(brightest > 0.0, "{name}: the lit scene rendered black");
-                }
+                assert!(brightest > 0.0, "{name}: the lit scene rendered black");
             }
         }
     }
@@ -784,13 +798,19 @@ fn stats_count_each_stage_and_idle_stages_are_skipped() {
     // shadow rays only when there is a light to test.
     let lit = include_str!("fixtures/minimal.dae");
     let unlit = lit.replace("<instance_light url=\"#lamp\"/>", "");
-    for (name, text, shadows) in [("stages-lit", lit, true), ("stages-unlit", &unlit, false)] {
+    // Unlit, nothing emits: no continuation rays either (only camera rays
+    // are traced, 400 × 300 of them).
+    for (name, text, lit) in [("stages-lit", lit, true), ("stages-unlit", &unlit, false)] {
         let (_, err) = render_text(name, text, &["-q", "--stats", "-s", "1", "-m", "2"]);
         assert_eq!(
             stage_items(&err, "shadow-test").is_some(),
-            shadows,
+            lit,
             "{name}: {err}"
         );
+        let traced = stage_items(&err, "intersect").unwrap();
+        assert_eq!(traced > 400 * 300, lit, "{name}: {err}");
+        let emitters = if lit { "1 point light" } else { "none" };
+        assert!(err.contains(&format!("; emitters: {emitters}\n")), "{err}");
     }
     // The fixture's light is a point light, exact with one sample: `-l`
     // (samples per area-like light) leaves its shadow rays alone.
@@ -801,9 +821,10 @@ fn stats_count_each_stage_and_idle_stages_are_skipped() {
     };
     assert_eq!(point_light_rays("4"), point_light_rays("1"));
     // -H counts a light of colour 0 in its N, as the reference does: one
-    // black light beside the lamp doubles the probes.
-    let with_dark = lit
-        .replace(
+    // black light beside the box's area light doubles the probes. Where
+    // every light is a point light, no probe can find one: none is sent.
+    let with_dark = |text: &str| {
+        text.replace(
             "</library_lights>",
             "<light id=\"dark\"><technique_common><point><color>0 0 0</color>\
              </point></technique_common></light></library_lights>",
@@ -811,15 +832,25 @@ fn stats_count_each_stage_and_idle_stages_are_skipped() {
         .replace(
             "</visual_scene>",
             "<node id=\"dark-node\"><instance_light url=\"#dark\"/></node></visual_scene>",
-        );
+        )
+    };
     let fixture_probes = |name: &str, text: &str| {
         let args = ["-q", "--stats", "-s", "1", "-m", "1", "-H"];
-        stage_items(&render_text(name, text, &args).1, "probe (-H)").unwrap()
+        stage_items(&render_text(name, text, &args).1, "probe (-H)")
     };
-    assert_eq!(
-        fixture_probes("stages-dark", &with_dark),
-        2 * fixture_probes("stages-lamp", lit)
+    let box_text = std::fs::read_to_string(cornell).unwrap();
+    let box_probes = fixture_probes("stages-box", &box_text).unwrap();
+    let err = render_text("stages-box-dark", &with_dark(&box_text), &["-q", "--stats"]).1;
+    assert!(
+        err.contains("; emitters: 1 area light, 1 light of colour 0\n"),
+        "{err}"
     );
+    assert_eq!(
+        fixture_probes("stages-box-dark", &with_dark(&box_text)),
+        Some(2 * box_probes)
+    );
+    assert_eq!(fixture_probes("stages-lamp", lit), None);
+    assert_eq!(fixture_probes("stages-lamp-dark", &with_dark(lit)), None);
 }
 
 /// `--shading bvh-cost` maps each pixel's traversal steps to the rate

@@ -405,14 +405,17 @@ pub fn run() -> Result<i32> {
         for note in settings.integrator.blind_spots(&scene.lights) {
             eprintln!("warning: {note}");
         }
-        if renderer.lights.is_empty() && settings.integrator.max_depth > 0 {
+        // The renderer's lights are every emitter (emissive meshes and
+        // spheres too): without one, nothing in the scene emits, whatever -m.
+        if renderer.lights.is_empty() {
             let why = if scene.lights.is_empty() {
                 "the scene has no lights"
             } else {
                 "no light of the scene emits (every light's colour is 0 0 0)"
             };
             eprintln!(
-                "warning: {}: {why}; only emission seen directly will show",
+                "warning: {}: {why} and no surface is emissive: nothing emits, so the image \
+                 is black",
                 scene_name.display()
             );
         }
@@ -477,7 +480,7 @@ pub fn run() -> Result<i32> {
     if args.stats {
         let shading_bytes = renderer.triangles.memory_bytes();
         report::stats(
-            &scene,
+            (&scene, &renderer.lights),
             (&bvh, shading_bytes),
             &result.stats,
             render_time,

@@ -5,6 +5,7 @@ use std::sync::Mutex;
 use std::time::Duration;
 
 use crate::bvh::Bvh;
+use crate::integrator::lights::{LightSet, LightSource};
 use crate::scene::Scene;
 use crate::wavefront::{RenderOutput, Stats};
 
@@ -37,9 +38,44 @@ pub fn timings(
     );
 }
 
+/// `n` and `what`, `what` given as singular and plural: "1 light", "2 lights".
+fn count(n: usize, (one, many): (&str, &str)) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
+/// The emitters the renderer samples, by kind, and the lights of colour 0
+/// it leaves out: what the shadow-ray and probe counts follow from.
+fn emitters(lights: &LightSet) -> String {
+    let mut kinds: Vec<((&str, &str), usize)> = Vec::new();
+    for light in &lights.sources {
+        let (kind, n) = match light {
+            LightSource::Point { .. } => (("point light", "point lights"), 1),
+            LightSource::Directional { .. } => (("directional light", "directional lights"), 1),
+            LightSource::Rectangle { .. } => (("area light", "area lights"), 1),
+            LightSource::Hemisphere { .. } => (("hemisphere light", "hemisphere lights"), 1),
+            LightSource::Sphere { .. } => (("emissive sphere", "emissive spheres"), 1),
+            LightSource::Mesh { triangles, .. } => {
+                (("emissive triangle", "emissive triangles"), triangles.len())
+            }
+        };
+        match kinds.iter_mut().find(|(k, _)| *k == kind) {
+            Some((_, total)) => *total += n,
+            None => kinds.push((kind, n)),
+        }
+    }
+    if lights.dark > 0 {
+        kinds.push((("light of colour 0", "lights of colour 0"), lights.dark));
+    }
+    if kinds.is_empty() {
+        return "none".into();
+    }
+    let parts: Vec<String> = kinds.iter().map(|&(kind, n)| count(n, kind)).collect();
+    parts.join(", ")
+}
+
 /// `shading_bytes`: the renderer's per-triangle shading records.
 pub fn stats(
-    scene: &Scene,
+    (scene, lights): (&Scene, &LightSet),
     (bvh, shading_bytes): (&Bvh, usize),
     stats: &Stats,
     render: Duration,
@@ -47,16 +83,16 @@ pub fn stats(
 ) {
     let g = &scene.geometry;
     eprintln!(
-        "scene: {} triangles, {} spheres, {} lights, {} materials",
-        g.triangles.len(),
-        g.spheres.len(),
-        scene.lights.len(),
-        scene.materials.len()
+        "scene: {}, {}, {}; emitters: {}",
+        count(g.triangles.len(), ("triangle", "triangles")),
+        count(g.spheres.len(), ("sphere", "spheres")),
+        count(scene.materials.len(), ("material", "materials")),
+        emitters(lights)
     );
     eprintln!(
-        "bvh: {} ({} wide nodes, depth {}, {:.1} KiB, {:.1} bytes/primitive)",
+        "bvh: {} ({}, depth {}, {:.1} KiB, {:.1} bytes/primitive)",
         bvh.accel(),
-        bvh.node_count(),
+        count(bvh.node_count(), ("wide node", "wide nodes")),
         bvh.depth(),
         bvh.memory_bytes() as f64 / 1024.0,
         bvh.memory_bytes() as f64 / bvh.primitive_count().max(1) as f64

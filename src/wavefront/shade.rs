@@ -49,7 +49,10 @@ pub struct ShadeInputs<'a> {
 fn vertex_blocks<'a>(inputs: &ShadeInputs<'a>) -> impl Iterator<Item = u32> + 'a {
     let settings = inputs.settings;
     let sources = &inputs.lights.sources;
-    let probes = settings.hemisphere.then(|| hemisphere_probes(inputs));
+    let probes = settings
+        .hemisphere
+        .then(|| hemisphere_probes(inputs))
+        .filter(|&n| n > 0);
     let lights = sources
         .iter()
         .filter(move |light| !settings.hemisphere && !light.is_delta())
@@ -58,10 +61,15 @@ fn vertex_blocks<'a>(inputs: &ShadeInputs<'a>) -> impl Iterator<Item = u32> + 'a
 }
 
 /// Probe rays per vertex with `-H`: `-l` per light (dark ones included,
-/// as the reference counts them), and `-l` when there is none.
+/// as the reference counts them; emissive meshes and spheres are lights
+/// here). None when no probe can find light: every light that emits is a
+/// point or directional light (which no direction hits), or none emits.
 fn hemisphere_probes(inputs: &ShadeInputs) -> u32 {
     let lights = &inputs.lights;
-    (lights.sources.len() + lights.dark).max(1) as u32 * inputs.settings.light_samples
+    if lights.sources.iter().all(LightSource::is_delta) {
+        return 0;
+    }
+    (lights.sources.len() + lights.dark) as u32 * inputs.settings.light_samples
 }
 
 /// Block of [`vertex_blocks`] that samples the BSDF.
@@ -182,14 +190,16 @@ fn shade_diffuse(
     let sp = surfaces.lanes(chunk.start);
     let p_out = offset_by_x8(sp.p, sp.ng, sp.err);
     let throughput = Vec3x8::gather(&paths.throughput[chunk.start..chunk.end]);
-    // Lanes that gather direct light, and lanes that may go on.
+    // Lanes that gather direct light, and lanes that may go on. Where
+    // nothing emits, no ray can bring light: none is traced.
     let (mut direct, mut goes_on) = (0u32, 0u32);
+    let lit = !inputs.lights.is_empty();
     for lane in lanes::each(chunk.diffuse) {
         let depth = paths.depth[chunk.start + lane];
-        if depth < settings.max_depth && settings.counts_bounce(depth + 1) {
+        if lit && depth < settings.max_depth && settings.counts_bounce(depth + 1) {
             direct |= 1 << lane;
         }
-        if depth + 1 < settings.max_depth {
+        if lit && depth + 1 < settings.max_depth {
             goes_on |= 1 << lane;
         }
     }
