@@ -432,6 +432,22 @@ fn adaptive_tests_span_passes() {
     );
 }
 
+/// Progress comes pass by pass, not tile by tile: a one-tile image of 256
+/// samples reports after each of its four 64-sample passes, so a small
+/// image of many samples does not sit at 0% until it is done.
+#[test]
+fn progress_is_reported_after_every_pass() {
+    let (scene, _) = square_light_scene(false, 4.0);
+    let s = settings(16, 16, 256, 1);
+    let bvh = wavepath::bvh::Bvh::build(&scene.geometry, wavepath::bvh::Accel::Sah);
+    let renderer = wavepath::wavefront::Renderer::new(&scene, &bvh);
+    let reports = std::sync::Mutex::new(Vec::new());
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let out = renderer.render(&s, &|units| reports.lock().unwrap().push(units), &cancel);
+    assert!(out.complete);
+    assert_eq!(reports.into_inner().unwrap(), [16 * 16 * 64; 4]);
+}
+
 #[test]
 fn images_are_bit_identical_across_threads_and_batch_sizes() {
     // A two-triangle floor (no tree to speak of) and a shipped mesh scene

@@ -444,6 +444,22 @@ fn lights_are_placed_by_their_nodes_world_transform() {
         assert!(scene.lights.is_empty(), "{kind}");
         assert!(warned(&scene, kind), "{kind}: {:?}", scene.warnings);
     }
+    // A light instanced by two nodes is one record: its warning is given
+    // once, not once per instance.
+    let twice = edits(&[
+        (
+            "<point>\n          <color>1 1 1</color>\n        </point>",
+            "<spot><color>1 1 1</color></spot>",
+        ),
+        (
+            "<node id=\"tri-node\">",
+            "<node id=\"lamp-again\"><instance_light url=\"#lamp\"/></node>\n      \
+             <node id=\"tri-node\">",
+        ),
+    ]);
+    let scene = load(&twice);
+    let spots = scene.warnings.iter().filter(|w| w.contains("spot")).count();
+    assert_eq!(spots, 1, "{:?}", scene.warnings);
 }
 
 #[test]

@@ -424,9 +424,9 @@ pub fn run() -> Result<i32> {
     // Ctrl-C stops the render between passes; what is done is still written.
     let cancel = cancel_on_ctrl_c();
 
-    let total_pixels = settings.area().pixel_count() as u64;
+    let total_work = Renderer::progress_total(&settings);
     let bar = if chatty && std::io::stderr().is_terminal() {
-        let bar = ProgressBar::new(total_pixels);
+        let bar = ProgressBar::new(total_work);
         bar.set_style(
             ProgressStyle::with_template(
                 "{spinner} [{elapsed_precise}] {wide_bar} {percent}% ETA {eta}",
@@ -439,15 +439,15 @@ pub fn run() -> Result<i32> {
     };
     // Without a terminal (a log, a pipe): a line every ten seconds instead.
     let lines = (chatty && bar.is_hidden())
-        .then(|| report::ProgressLines::new(total_pixels, std::time::Duration::from_secs(10)));
+        .then(|| report::ProgressLines::new(total_work, std::time::Duration::from_secs(10)));
     let t = Instant::now();
-    let on_tile = |pixels: u64| {
-        bar.inc(pixels);
-        if let Some(line) = lines.as_ref().and_then(|l| l.advance(pixels, t.elapsed())) {
+    let on_progress = |units: u64| {
+        bar.inc(units);
+        if let Some(line) = lines.as_ref().and_then(|l| l.advance(units, t.elapsed())) {
             eprintln!("{line}");
         }
     };
-    let result = pool.install(|| renderer.render(&settings, &on_tile, &cancel));
+    let result = pool.install(|| renderer.render(&settings, &on_progress, &cancel));
     let render_time = t.elapsed();
     bar.finish_and_clear();
 

@@ -175,29 +175,31 @@ fn samples_taken(samples: &[u32], adaptive_max: Option<u32>, complete: bool) -> 
 /// Progress for a log: where stderr is not a terminal there is no bar, so
 /// a long render prints a line now and then — at most once per `every`,
 /// the first after `every` — saying how far it is and how long it may
-/// take. Renders shorter than `every` print none.
+/// take. Renders shorter than `every` print none. Work is counted in the
+/// renderer's progress units (pixel samples of the budget, see
+/// [`Renderer::render`](crate::wavefront::Renderer::render)).
 pub struct ProgressLines {
     total: u64,
     every: Duration,
-    /// Pixels done, and when the last line was due.
+    /// Units done, and when the last line was due.
     state: Mutex<(u64, Duration)>,
 }
 
 impl ProgressLines {
-    pub fn new(total_pixels: u64, every: Duration) -> Self {
+    pub fn new(total_units: u64, every: Duration) -> Self {
         ProgressLines {
-            total: total_pixels.max(1),
+            total: total_units.max(1),
             every,
             state: Mutex::new((0, Duration::ZERO)),
         }
     }
 
-    /// Counts `pixels` more done, `elapsed` into the render; returns the
+    /// Counts `units` more done, `elapsed` into the render; returns the
     /// line to print, if one is due. None once all is done: the closing
     /// report follows.
-    pub fn advance(&self, pixels: u64, elapsed: Duration) -> Option<String> {
+    pub fn advance(&self, units: u64, elapsed: Duration) -> Option<String> {
         let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
-        state.0 += pixels;
+        state.0 += units;
         let done = state.0;
         if done >= self.total || elapsed < state.1 + self.every {
             return None;
@@ -212,7 +214,7 @@ impl ProgressLines {
         };
         // Rounded down: "100%" only once all is done (and then no line).
         Some(format!(
-            "progress: {}% of pixels done, {secs:.0} s elapsed, {left}",
+            "progress: {}% done, {secs:.0} s elapsed, {left}",
             (100.0 * fraction).floor()
         ))
     }
@@ -236,24 +238,24 @@ mod tests {
         assert_eq!(lines.advance(100, s(5)), None);
         assert_eq!(
             lines.advance(150, s(10)).as_deref(),
-            Some("progress: 25% of pixels done, 10 s elapsed, about 30 s left")
+            Some("progress: 25% done, 10 s elapsed, about 30 s left")
         );
         assert_eq!(lines.advance(100, s(19)), None);
         assert_eq!(
             lines.advance(150, s(20)).as_deref(),
-            Some("progress: 50% of pixels done, 20 s elapsed, about 20 s left")
+            Some("progress: 50% done, 20 s elapsed, about 20 s left")
         );
         // 99.9% is not called 100%; all done, the closing report says the rest.
         assert_eq!(
             lines.advance(499, s(30)).as_deref(),
-            Some("progress: 99% of pixels done, 30 s elapsed, about 0 s left")
+            Some("progress: 99% done, 30 s elapsed, about 0 s left")
         );
         assert_eq!(lines.advance(1, s(40)), None);
         // Before any pixel is done, no time left is guessed.
         let stuck = ProgressLines::new(1000, s(10));
         assert_eq!(
             stuck.advance(0, s(12)).as_deref(),
-            Some("progress: 0% of pixels done, 12 s elapsed, time left unknown")
+            Some("progress: 0% done, 12 s elapsed, time left unknown")
         );
     }
 

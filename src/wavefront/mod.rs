@@ -161,12 +161,15 @@ impl<'a> Renderer<'a> {
         }
     }
 
-    /// Renders on the current rayon pool. `on_tile` is called after each
-    /// tile with its pixel count; `cancel` stops the render between passes.
+    /// Renders on the current rayon pool; `cancel` stops the render between
+    /// passes. `on_progress` is called after each pass of a tile with the
+    /// work done, in units of [`progress_total`](Self::progress_total): a
+    /// pixel's samples, and when a pixel converges, the samples of `-s` it
+    /// will not take.
     pub fn render(
         &self,
         settings: &RenderSettings,
-        on_tile: &(dyn Fn(u64) + Sync),
+        on_progress: &(dyn Fn(u64) + Sync),
         cancel: &AtomicBool,
     ) -> RenderOutput {
         // A region (`-p`) is rendered in place: each of its pixels draws the
@@ -184,14 +187,14 @@ impl<'a> Renderer<'a> {
         tiles
             .par_iter()
             .for_each_init(Scratch::default, |scratch, &tile| {
-                let (film, s, done) = self.render_tile(settings, tile, cancel, scratch);
+                let (film, s, done) =
+                    self.render_tile(settings, tile, cancel, on_progress, scratch);
                 {
                     let mut totals = totals.lock().unwrap_or_else(|e| e.into_inner());
                     totals.0.store(&film, area);
                     totals.1 += s;
                     totals.2 &= done;
                 }
-                on_tile(tile.pixel_count() as u64);
             });
         let (mut image, stats, complete) = totals.into_inner().unwrap_or_else(|e| e.into_inner());
         if settings.integrator.view == View::BvhCost {
@@ -215,11 +218,18 @@ impl<'a> Renderer<'a> {
         }
     }
 
+    /// The units of work a render reports to its `on_progress`: every
+    /// pixel's `-s` samples.
+    pub fn progress_total(settings: &RenderSettings) -> u64 {
+        settings.area().pixel_count() as u64 * u64::from(settings.spp)
+    }
+
     fn render_tile(
         &self,
         settings: &RenderSettings,
         tile: Tile,
         cancel: &AtomicBool,
+        on_progress: &(dyn Fn(u64) + Sync),
         scratch: &mut Scratch,
     ) -> (TileFilm, Stats, bool) {
         let mut film = TileFilm::new(tile);
@@ -264,9 +274,11 @@ impl<'a> Renderer<'a> {
         let mut taken = 0;
         let want_cost = integrator.view == View::BvhCost;
 
+        let mut done = true;
         while taken < settings.spp && !active.is_empty() {
             if cancel.load(Ordering::Relaxed) {
-                return (film, stats, false);
+                done = false;
+                break;
             }
             let n_pass = (test_every - taken % test_every)
                 .min(MAX_PASS)
@@ -343,9 +355,11 @@ impl<'a> Renderer<'a> {
                 film.add(pixel as usize, samples);
             }
             taken += n_pass;
+            let mut progress = active.len() as u64 * u64::from(n_pass);
             if let Some(adaptive) = settings.adaptive
                 && taken % test_every == 0
             {
+                let before = active.len();
                 active.retain(|&p| {
                     let p = p as usize;
                     !converged(
@@ -355,10 +369,15 @@ impl<'a> Renderer<'a> {
                         adaptive.tolerance,
                     )
                 });
+                // The samples the converged pixels will not take count as done.
+                progress += (before - active.len()) as u64 * u64::from(settings.spp - taken);
             }
             stats.film.record(slots.len(), t);
+            on_progress(progress);
         }
+        // Counted from the film, so that a tile cut short by Ctrl-C counts
+        // the passes it finished.
         stats.samples += film.count.iter().map(|&n| n as u64).sum::<u64>();
-        (film, stats, true)
+        (film, stats, done)
     }
 }

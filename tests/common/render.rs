@@ -1,6 +1,6 @@
 //! Building scenes in code and rendering them, for estimator tests.
 
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::{Mat3, Vec3};
 use wavepath::bvh::{Accel, Bvh};
@@ -75,7 +75,8 @@ impl Builder {
     }
 }
 
-/// Renders on a pool of `threads` threads and checks that no pixel is NaN or infinite.
+/// Renders on a pool of `threads` threads and checks that no pixel is NaN
+/// or infinite, and that the progress reported adds up to the whole work.
 pub fn render(scene: &Scene, settings: &RenderSettings, threads: usize) -> Image {
     let bvh = Bvh::build(&scene.geometry, Accel::Sah);
     let renderer = Renderer::new(scene, &bvh);
@@ -84,8 +85,17 @@ pub fn render(scene: &Scene, settings: &RenderSettings, threads: usize) -> Image
         .build()
         .unwrap();
     let cancel = AtomicBool::new(false);
-    let out = pool.install(|| renderer.render(settings, &|_| {}, &cancel));
+    let progress = AtomicU64::new(0);
+    let on_progress = |units: u64| {
+        progress.fetch_add(units, Ordering::Relaxed);
+    };
+    let out = pool.install(|| renderer.render(settings, &on_progress, &cancel));
     assert!(out.complete);
+    assert_eq!(
+        progress.into_inner(),
+        Renderer::progress_total(settings),
+        "the progress reported is not the whole work"
+    );
     assert_eq!(
         out.image.non_finite_count(),
         0,

@@ -627,6 +627,10 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
             ));
         }
         let camera = Camera::place(view_dir, &optics, bounds.min, bounds.max);
+        // A record instanced by several nodes (a light, a mesh) meets the
+        // same problem at each: said once, where it was first met.
+        let mut said = std::collections::HashSet::new();
+        self.warnings.retain(|w| said.insert(w.clone()));
 
         Scene::assemble(
             self.geometry,
