@@ -432,9 +432,9 @@ fn adaptive_tests_span_passes() {
     );
 }
 
-/// Progress comes pass by pass, not tile by tile: a one-tile image of 256
-/// samples reports after each of its four 64-sample passes, so a small
-/// image of many samples does not sit at 0% until it is done.
+/// Progress comes pass by pass, not tile by tile: each tile of a 16 × 16
+/// image of 256 samples reports after each of its four 64-sample passes,
+/// so a small image of many samples does not sit at 0% until it is done.
 #[test]
 fn progress_is_reported_after_every_pass() {
     let (scene, _) = square_light_scene(false, 4.0);
@@ -445,7 +445,10 @@ fn progress_is_reported_after_every_pass() {
     let cancel = std::sync::atomic::AtomicBool::new(false);
     let out = renderer.render(&s, &|units| reports.lock().unwrap().push(units), &cancel);
     assert!(out.complete);
-    assert_eq!(reports.into_inner().unwrap(), [16 * 16 * 64; 4]);
+    let reports = reports.into_inner().unwrap();
+    let tiles = wavepath::film::Tile::whole(16, 16).split_for(16, rayon::current_num_threads());
+    assert_eq!(reports.len(), 4 * tiles.len(), "{reports:?}");
+    assert_eq!(reports.iter().sum::<u64>(), 16 * 16 * 256);
 }
 
 #[test]

@@ -56,7 +56,27 @@ impl Tile {
         }
         tiles
     }
+
+    /// Tiles of at most `size × size` for `workers` threads, smaller ones
+    /// (halving, down to [`MIN_SHARED_TILE`]) where `size` would leave fewer
+    /// than two tiles per thread: tiles are the unit of parallel work, so a
+    /// small image of many samples would otherwise keep threads idle (one
+    /// 16 × 16 tile is one thread's work however many samples it takes).
+    /// Every pixel gets the same value whatever the tiling.
+    pub fn split_for(&self, size: u32, workers: usize) -> Vec<Tile> {
+        let mut size = size.max(1);
+        let mut tiles = self.split(size);
+        while tiles.len() < 2 * workers && size > MIN_SHARED_TILE {
+            size = (size / 2).max(MIN_SHARED_TILE);
+            tiles = self.split(size);
+        }
+        tiles
+    }
 }
+
+/// The smallest tile side [`Tile::split_for`] goes down to: 16 pixels
+/// still fill a wave of 1024 paths per 64-sample pass.
+pub const MIN_SHARED_TILE: u32 = 4;
 
 /// Per-pixel statistics of one tile.
 #[derive(Clone, Debug)]
@@ -186,6 +206,40 @@ impl Image {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A small image is cut into enough tiles for every thread (two each
+    /// where the pixels allow); a large one keeps the tile size asked for.
+    /// Either way the tiles cover every pixel once.
+    #[test]
+    fn small_images_are_shared_among_the_threads() {
+        let covered = |tiles: &[Tile], w: u32, h: u32| {
+            let mut seen = vec![0u8; (w * h) as usize];
+            for t in tiles {
+                for y in t.y0..t.y0 + t.height {
+                    for x in t.x0..t.x0 + t.width {
+                        seen[(y * w + x) as usize] += 1;
+                    }
+                }
+            }
+            seen.iter().all(|&n| n == 1)
+        };
+        let small = Tile::whole(16, 12);
+        assert_eq!(small.split(16).len(), 1);
+        let shared = small.split_for(16, 2);
+        assert!(shared.len() >= 4, "{shared:?}");
+        assert!(shared.iter().all(|t| t.width <= 8 && t.height <= 8));
+        assert!(covered(&shared, 16, 12));
+        // Never below the smallest side, even for more threads than pixels.
+        let tiny = Tile::whole(5, 3);
+        let tiles = tiny.split_for(16, 64);
+        assert_eq!(tiles.len(), 2, "{tiles:?}");
+        assert_eq!((tiles[0].width, tiles[0].height), (MIN_SHARED_TILE, 3));
+        assert!(covered(&tiles, 5, 3));
+        // Enough tiles already: the size asked for.
+        let large = Tile::whole(480, 360);
+        assert_eq!(large.split_for(16, 2), large.split(16));
+        assert_eq!(large.split_for(7, 1), large.split(7));
+    }
 
     /// Samples added in runs of any length leave the same statistics as
     /// the samples added one by one, in the same order.

@@ -176,7 +176,7 @@ impl<'a> Renderer<'a> {
         // random numbers it draws in a whole render, so it gets the same
         // value; the image holds the region only.
         let area = settings.area();
-        let tiles = area.split(settings.tile_size);
+        let tiles = area.split_for(settings.tile_size, rayon::current_num_threads());
         // Each tile is stored into the image as soon as it is done, so only
         // the tiles in flight hold their f64 sums: kept for the whole image
         // until the end, they took 68 bytes per pixel more than the image's
