@@ -124,6 +124,85 @@ fn furnace_bounce_selection() {
     }
 }
 
+/// The sphere furnace with the point light off centre, at `c`, and a
+/// coloured albedo ρ. A wall point x (|x| = 1, inward normal −x) at
+/// distance d from the light gets E₁ = I·cosθ/d² = I·(1 − x·c)/d³, so the
+/// first bounce is ρ(1 − x·c)/d³ with I = π: it varies over the wall by a
+/// factor of sixteen. From the second bounce on the light is uniform
+/// again, because between any two points of a sphere cosθ·cosθ′/r² =
+/// 1/4R²: E₂ = Φ/4πR² ρ = ρI/R², so bounce k ≥ 2 brings exactly ρᵏ. Here
+/// (unlike the centred furnace) where the BSDF sends a path decides what
+/// it brings, and roulette weighs unequal channels.
+fn off_centre_furnace(light: Vec3, albedo: Vec3) -> Scene {
+    let mut b = Builder::default();
+    let wall = b.material(Material::Diffuse { albedo });
+    b.sphere(Vec3::ZERO, 1.0, wall);
+    b.lights.push(Light::Point {
+        position: light,
+        intensity: Vec3::splat(std::f32::consts::PI),
+    });
+    b.build(camera(
+        Vec3::new(-0.2, 0.1, 0.1),
+        Vec3::new(0.8, 0.1, -0.6),
+        Vec3::Y,
+        70.0,
+        18,
+    ))
+}
+
+/// (1 − x·c)/d³ (the first bounce over ρ) averaged over the wall points x
+/// each pixel sees, with the light at `c`.
+fn off_centre_first_bounce(scene: &Scene, c: Vec3, w: u32, h: u32) -> Vec<f64> {
+    let o = scene.camera.position.as_dvec3();
+    let c = c.as_dvec3();
+    pixel_mean(scene, w, h, |d| {
+        let d = d.as_dvec3().normalize();
+        let b = o.dot(d);
+        let x = o + (-b + (b * b - o.length_squared() + 1.0).sqrt()) * d;
+        (1.0 - x.dot(c)) / (x - c).length().powi(3)
+    })
+}
+
+#[test]
+fn off_centre_furnace_matches_its_closed_form() {
+    let (c, albedo) = (Vec3::new(0.6, 0.0, 0.0), Vec3::new(0.8, 0.5, 0.2));
+    let scene = off_centre_furnace(c, albedo);
+    let (w, h) = (32, 24);
+    let first = off_centre_first_bounce(&scene, c, w, h);
+    // (-m, bounces shown, roulette from vertex; 0 = off, spp)
+    for (m, bounces, roulette, spp) in [
+        (1, Bounces::Accumulate, 0, 4),
+        (2, Bounces::Last, 0, 64),
+        (12, Bounces::Accumulate, 1, 64),
+        (12, Bounces::Indirect, 0, 64),
+    ] {
+        let mut s = settings(w, h, spp, m);
+        s.integrator.bounces = bounces;
+        s.integrator.russian_roulette = roulette > 0;
+        s.integrator.roulette_depth = roulette;
+        let image = render(&scene, &s, 2);
+        for (channel_index, rho) in albedo.to_array().into_iter().enumerate() {
+            let rho = rho as f64;
+            let expected: Vec<f64> = first
+                .iter()
+                .map(|&e1| {
+                    shown(bounces, m, |k| {
+                        if k == 1 { rho * e1 } else { rho.powi(k as i32) }
+                    })
+                })
+                .collect();
+            assert_unbiased(
+                &format!(
+                    "off-centre furnace -m {m} {bounces:?} roulette {roulette} channel {channel_index}"
+                ),
+                &channel(&image, channel_index),
+                &expected,
+                1e-4,
+            );
+        }
+    }
+}
+
 #[test]
 fn zero_bounce_shows_only_emission() {
     let scene = furnace();
@@ -174,15 +253,21 @@ fn floor_points(scene: &Scene, w: u32, h: u32) -> Vec<Vec3> {
     points
 }
 
-/// The mean of `f` over the part of the floor each pixel sees, by an 8×8
-/// midpoint grid within the pixel: what a film that jitters its samples
-/// uniformly over the pixel converges to. (Evaluating `f` at the pixel
-/// centre instead misses by ~2e-4 of the value where `f` curves, which the
-/// low-variance estimates here resolve.)
+/// The mean of `f` over the part of the floor each pixel sees (see
+/// [`pixel_mean`]).
 fn pixel_average(scene: &Scene, w: u32, h: u32, f: impl Fn(Vec3) -> f64) -> Vec<f64> {
+    let o = scene.camera.position;
+    pixel_mean(scene, w, h, |d| f(o + (-o.y / d.y) * d))
+}
+
+/// The mean of `f` over the camera ray directions through each pixel, by
+/// an 8×8 midpoint grid within the pixel: what a film that jitters its
+/// samples uniformly over the pixel converges to. (Evaluating `f` at the
+/// pixel centre instead misses by ~2e-4 of the value where `f` curves,
+/// which the low-variance estimates here resolve.)
+fn pixel_mean(scene: &Scene, w: u32, h: u32, f: impl Fn(Vec3) -> f64) -> Vec<f64> {
     const N: u32 = 8;
     let view = scene.camera.view(w, h);
-    let o = scene.camera.position;
     let mut out = Vec::with_capacity((w * h) as usize);
     for row in 0..h {
         let y = h - 1 - row;
@@ -195,7 +280,7 @@ fn pixel_average(scene: &Scene, w: u32, h: u32, f: impl Fn(Vec3) -> f64) -> Vec<
                         x as f32 + (i as f32 + 0.5) / N as f32,
                         y as f32 + (j as f32 + 0.5) / N as f32,
                     );
-                    sum += f(o + (-o.y / d.y) * d);
+                    sum += f(d);
                 }
             }
             out.push(sum / (N * N) as f64);
@@ -355,29 +440,43 @@ fn sphere_light_matches_the_closed_form() {
 
 #[test]
 fn adaptive_and_fixed_sampling_agree() {
-    let scene = furnace();
+    // The off-centre furnace: every pixel's value differs, and so does its
+    // noise, so pixels stop at different counts.
+    let (c, albedo) = (Vec3::new(0.6, 0.0, 0.0), Vec3::splat(ALBEDO));
+    let scene = off_centre_furnace(c, albedo);
     let m = 3;
-    let expected = shown(Bounces::Accumulate, m, furnace_bounce);
-    let mut s = settings(24, 18, 256, m);
+    let (w, h) = (24, 18);
+    let rho = ALBEDO as f64;
+    let expected: Vec<f64> = off_centre_first_bounce(&scene, c, w, h)
+        .iter()
+        .map(|&e1| rho * e1 + rho.powi(2) + rho.powi(3))
+        .collect();
+    let mut s = settings(w, h, 256, m);
     s.adaptive = Some(Adaptive {
         samples_per_batch: 16,
         tolerance: 0.05,
     });
     let adaptive = render(&scene, &s, 2);
-    let taken: u64 = adaptive.samples.iter().map(|&n| n as u64).sum();
+    let stopped_at: std::collections::BTreeSet<u32> = adaptive.samples.iter().copied().collect();
+    assert!(stopped_at.len() >= 3, "pixels stopped at {stopped_at:?}");
     assert!(
-        taken < 256 * 24 * 18,
-        "some pixels must converge early (took {taken} samples)"
-    );
-    assert!(
-        adaptive
-            .samples
+        stopped_at
             .iter()
-            .all(|&n| (16..=256).contains(&n) && n % 16 == 0)
+            .all(|&n| (16..=256).contains(&n) && n % 16 == 0),
+        "{stopped_at:?}"
     );
+    // Stopping where a pixel's interval happens to be small is a bias of
+    // its own, by far smaller than the tolerance: with right-skewed
+    // samples a run of low ones looks converged sooner. Measured over
+    // twelve seeds: −0.12% to −0.22% of the mean at 4.5–2.2σ, where fixed
+    // 64-spp renders of the same seeds read |z| ≤ 1.4. The slack allows
+    // 0.5% (a tenth of the tolerance); dividing by one sample too few,
+    // +1/n on every pixel that stops early (+2.6% here), fails.
     let est = channel(&adaptive, 1);
-    // Stopping when the interval is small biases by far less than the tolerance.
-    assert_unbiased("furnace, adaptive", &est, &vec![expected; est.len()], 0.01);
+    assert_unbiased("off-centre furnace, adaptive", &est, &expected, 5e-3);
+
+    let scene = furnace();
+    let expected = shown(Bounces::Accumulate, m, furnace_bounce);
 
     // Tests further apart than the renderer's largest pass (64 samples):
     // still every 96 samples exactly, the passes between them summed in.

@@ -496,6 +496,12 @@ fn assert_same_mean_at_every_scale(lamps: Lamps) {
         lamps,
     );
     let (m0, v0) = image_mean(&render(&unit, &s, 2));
+    // A black or noiseless unit render would make every z 0/0 (NaN), which
+    // no |z| > Z test rejects.
+    assert!(
+        m0 > 0.0 && v0 > 0.0,
+        "{lamps:?}: unit render mean {m0}, variance {v0}"
+    );
     let frames = [
         (1e-4, Vec3::ZERO),
         (1e-2, Vec3::ZERO),
@@ -515,7 +521,7 @@ fn assert_same_mean_at_every_scale(lamps: Lamps) {
             "{lamps:?}, scale {scale:e}, translation {t}: mean {m:.5} vs {m0:.5} (σ {:.2e}), z = {z:.2}",
             (v + v0).sqrt()
         );
-        if z.abs() > Z {
+        if z.is_nan() || z.abs() > Z {
             failures.push(format!("scale {scale:e} translation {t}: z = {z:.2}"));
         }
     }
@@ -1283,12 +1289,10 @@ fn spheres_far_huge_and_tiny_match_the_closed_form() {
 /// radiance 1, every pixel whose centre ray passes well inside it must be
 /// exactly 1.
 ///
-/// Fails with the SAH BVH: the sphere's bounding box is computed as
-/// `center ± radius` in f32 (`Spheres::bounds`, src/scene/geometry.rs),
-/// which rounds to the centre itself, so the box is a point and the slab
-/// test rejects every ray that does not pass exactly through the centre.
-/// The fix belongs there (or in the BVH build): round sphere bounds
-/// outward, e.g. to the next float below `c − r` and above `c + r`.
+/// Catches sphere bounds computed as `center ± radius` in f32, which
+/// round to the centre itself there: the box is then a point, and the slab
+/// test rejects every ray that does not pass exactly through the centre
+/// (`Spheres::bounds`, src/scene/geometry.rs, rounds them outward).
 #[test]
 fn sphere_smaller_than_the_float_spacing_is_seen() {
     let (c, r) = (FAR, 1e-3f32);
