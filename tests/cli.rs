@@ -688,7 +688,7 @@ fn a_scene_without_light_warns_once_and_renders_black() {
         ("glowing", glowing.as_str(), "2", None),
     ];
     for (name, text, depth, says) in cases {
-        let (out, err) = render_text(name, text, &["-q", "-s", "2", "-m", depth]);
+        let (out, err) = render_text(name, text, &["-q", "--stats", "-s", "2", "-m", depth]);
         let warnings: Vec<&str> = err
             .lines()
             .filter(|l| l.contains("nothing emits, so the image is black"))
@@ -714,6 +714,16 @@ fn a_scene_without_light_warns_once_and_renders_black() {
                 assert!(brightest > 0.0, "{name}: the lit scene rendered black");
             }
         }
+        let emitters = match name {
+            "lit" => "1 point light",
+            "dark" => "1 light of colour 0",
+            "glowing" => "1 emissive sphere, 1 emissive triangle",
+            _ => "none",
+        };
+        assert!(
+            err.contains(&format!("; emitters: {emitters}\n")),
+            "{name}: {err}"
+        );
     }
 }
 
@@ -851,6 +861,10 @@ fn stats_count_each_stage_and_idle_stages_are_skipped() {
     );
     assert_eq!(fixture_probes("stages-lamp", lit), None);
     assert_eq!(fixture_probes("stages-lamp-dark", &with_dark(lit)), None);
+    // Nor does a path go on there: what it would meet, -H cannot see.
+    let args = ["-q", "--stats", "-s", "1", "-m", "3", "-H"];
+    let err = render_text("stages-lamp-deep", lit, &args).1;
+    assert_eq!(stage_items(&err, "intersect"), Some(400 * 300), "{err}");
 }
 
 /// `--shading bvh-cost` maps each pixel's traversal steps to the rate

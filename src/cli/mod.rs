@@ -55,17 +55,11 @@ fn scene_path(args: &Args) -> &std::path::Path {
         .unwrap_or(std::path::Path::new(DEFAULT_SCENE_NAME))
 }
 
-/// Exits as clap does on a bad value of command `C`: `msg` with a usage
-/// hint, status 2.
+/// Exits as clap does on a bad flag value of command `C`: `msg`, the
+/// command's usage line, status 2. Every command refuses its flags so;
+/// status 1 is for the files it reads.
 fn usage_error<C: CommandFactory>(msg: String) -> ! {
-    exit_with_usage(C::command(), msg)
-}
-
-/// Exits as clap does on a bad flag value of `command`: `msg`, the
-/// command's usage line, status 2. Every command refuses its flags so,
-/// whatever it is; status 1 is for the files it reads.
-fn exit_with_usage(mut command: clap::Command, msg: String) -> ! {
-    command
+    C::command()
         .error(clap::error::ErrorKind::ValueValidation, msg)
         .exit()
 }

@@ -29,11 +29,11 @@ pub fn timings(
         samples_taken(&result.image.samples, adaptive_max, result.complete)
     );
     eprintln!(
-        "load {:.3} s | BVH build {:.3} s | render {:.3} s on {threads} thread{} | {:.2} Mrays/s",
+        "load {:.3} s | BVH build {:.3} s | render {:.3} s on {} | {:.2} Mrays/s",
         load.as_secs_f64(),
         build.as_secs_f64(),
         render.as_secs_f64(),
-        plural(threads),
+        count(threads, THREADS),
         rays / render.as_secs_f64().max(1e-9) / 1e6
     );
 }
@@ -42,6 +42,8 @@ pub fn timings(
 fn count(n: usize, (one, many): (&str, &str)) -> String {
     format!("{n} {}", if n == 1 { one } else { many })
 }
+
+const THREADS: (&str, &str) = ("thread", "threads");
 
 /// The emitters the renderer samples, by kind, and the lights of colour 0
 /// it leaves out: what the shadow-ray and probe counts follow from.
@@ -136,10 +138,10 @@ pub fn stats(
     );
     let secs = render.as_secs_f64().max(1e-9);
     eprintln!(
-        "throughput: {:.2} Mrays/s, {:.2} Msamples/s ({threads} thread{}; stage times are summed over threads)",
+        "throughput: {:.2} Mrays/s, {:.2} Msamples/s ({}; stage times are summed over threads)",
         stats.rays() as f64 / secs / 1e6,
         stats.samples as f64 / secs / 1e6,
-        plural(threads)
+        count(threads, THREADS)
     );
 }
 
@@ -218,11 +220,6 @@ impl ProgressLines {
             (100.0 * fraction).floor()
         ))
     }
-}
-
-/// "s" unless `n` is 1.
-fn plural(n: usize) -> &'static str {
-    if n == 1 { "" } else { "s" }
 }
 
 #[cfg(test)]

@@ -59,14 +59,17 @@ impl Tile {
 
     /// Tiles of at most `size × size` for `workers` threads, smaller ones
     /// (halving, down to [`MIN_SHARED_TILE`]) where `size` would leave fewer
-    /// than two tiles per thread: tiles are the unit of parallel work, so a
-    /// small image of many samples would otherwise keep threads idle (one
-    /// 16 × 16 tile is one thread's work however many samples it takes).
-    /// Every pixel gets the same value whatever the tiling.
+    /// than two tiles per thread of several: tiles are the unit of parallel
+    /// work, so a small image of many samples would otherwise keep threads
+    /// idle (one 16 × 16 tile is one thread's work however many samples it
+    /// takes). A finished pixel gets the same value whatever the tiling; an
+    /// interrupted render keeps whole tiles (each takes all its samples
+    /// before the next starts), so smaller tiles leave more pixels unrendered
+    /// there, which is why one thread keeps `size`.
     pub fn split_for(&self, size: u32, workers: usize) -> Vec<Tile> {
         let mut size = size.max(1);
         let mut tiles = self.split(size);
-        while tiles.len() < 2 * workers && size > MIN_SHARED_TILE {
+        while workers > 1 && tiles.len() < 2 * workers && size > MIN_SHARED_TILE {
             size = (size / 2).max(MIN_SHARED_TILE);
             tiles = self.split(size);
         }
@@ -74,8 +77,8 @@ impl Tile {
     }
 }
 
-/// The smallest tile side [`Tile::split_for`] goes down to: 16 pixels
-/// still fill a wave of 1024 paths per 64-sample pass.
+/// The smallest tile side [`Tile::split_for`] goes down to: a pass of
+/// 32–64 samples over 16 pixels still makes waves of 512–1024 paths.
 pub const MIN_SHARED_TILE: u32 = 4;
 
 /// Per-pixel statistics of one tile.
@@ -235,6 +238,8 @@ mod tests {
         assert_eq!(tiles.len(), 2, "{tiles:?}");
         assert_eq!((tiles[0].width, tiles[0].height), (MIN_SHARED_TILE, 3));
         assert!(covered(&tiles, 5, 3));
+        // One thread: the size asked for (smaller tiles would not help it).
+        assert_eq!(small.split_for(16, 1), small.split(16));
         // Enough tiles already: the size asked for.
         let large = Tile::whole(480, 360);
         assert_eq!(large.split_for(16, 2), large.split(16));

@@ -62,14 +62,25 @@ fn vertex_blocks<'a>(inputs: &ShadeInputs<'a>) -> impl Iterator<Item = u32> + 'a
 
 /// Probe rays per vertex with `-H`: `-l` per light (dark ones included,
 /// as the reference counts them; emissive meshes and spheres are lights
-/// here). None when no probe can find light: every light that emits is a
-/// point or directional light (which no direction hits), or none emits.
+/// here). None when no probe can find light (see [`light_can_be_found`]).
 fn hemisphere_probes(inputs: &ShadeInputs) -> u32 {
     let lights = &inputs.lights;
-    if lights.sources.iter().all(LightSource::is_delta) {
+    if !light_can_be_found(inputs) {
         return 0;
     }
     (lights.sources.len() + lights.dark) as u32 * inputs.settings.light_samples
+}
+
+/// Whether any ray can bring light to a path: some light emits, and with
+/// `-H` some emitting light can be hit (point and directional lights
+/// cannot be: no direction finds them). Where none can, no shadow, probe
+/// or continuation ray is traced.
+fn light_can_be_found(inputs: &ShadeInputs) -> bool {
+    let sources = &inputs.lights.sources;
+    match inputs.settings.hemisphere {
+        true => sources.iter().any(|light| !light.is_delta()),
+        false => !sources.is_empty(),
+    }
 }
 
 /// Block of [`vertex_blocks`] that samples the BSDF.
@@ -105,6 +116,7 @@ pub fn shade(
         return;
     }
     draws.draw(&mut paths.stream, vertex_blocks(inputs));
+    let light_can_be_found = light_can_be_found(inputs);
     let n = paths.len();
     let (mut shadow, mut probes) = (shadow.writer(), probes.writer());
     for start in (0..n).step_by(LANES) {
@@ -140,6 +152,7 @@ pub fn shade(
                 start,
                 end,
                 diffuse,
+                light_can_be_found,
             };
             let brdf = (Vec3x8::gather(&albedo), Vec3x8::gather(&f));
             shade_diffuse(
@@ -168,11 +181,13 @@ fn show_view(view: View, hits: &Hits, surfaces: &SurfacePoints, paths: &mut Path
 }
 
 /// Eight consecutive paths `start..end` of a wave, with the mask of those
-/// that hit a diffuse surface.
+/// that hit a diffuse surface, and whether any ray can bring them light
+/// ([`light_can_be_found`], the same for the whole wave).
 struct Chunk {
     start: usize,
     end: usize,
     diffuse: u32,
+    light_can_be_found: bool,
 }
 
 /// Shades the diffuse hits of a chunk (albedo and BRDF value per lane):
@@ -190,10 +205,9 @@ fn shade_diffuse(
     let sp = surfaces.lanes(chunk.start);
     let p_out = offset_by_x8(sp.p, sp.ng, sp.err);
     let throughput = Vec3x8::gather(&paths.throughput[chunk.start..chunk.end]);
-    // Lanes that gather direct light, and lanes that may go on. Where
-    // nothing emits, no ray can bring light: none is traced.
+    // Lanes that gather direct light, and lanes that may go on.
     let (mut direct, mut goes_on) = (0u32, 0u32);
-    let lit = !inputs.lights.is_empty();
+    let lit = chunk.light_can_be_found;
     for lane in lanes::each(chunk.diffuse) {
         let depth = paths.depth[chunk.start + lane];
         if lit && depth < settings.max_depth && settings.counts_bounce(depth + 1) {
