@@ -454,6 +454,72 @@ fn sphere_light_matches_the_closed_form() {
     assert_unbiased("sphere light", &est, &exp, 1e-5);
 }
 
+/// Each path's light samples are drawn for its own shading point: one
+/// camera ray through each pixel's centre (eight neighbouring pixels share
+/// a chunk of eight lanes) and 256 light samples, pixel by pixel against
+/// the closed form at that point, for the lights sampled lane by lane
+/// (spheres and emissive meshes). A lane that took another lane's point,
+/// normal or draws would show a neighbour's light.
+#[test]
+fn light_samples_land_on_their_own_pixels() {
+    let (w, h) = (W, H);
+    let (center, radius, radiance) = (Vec3::new(-0.3, 1.2, 0.2), 0.4f32, 3.0f32);
+    let tri = [
+        Vec3::new(-0.9, 1.0, -0.6),
+        Vec3::new(0.3, 1.0, -0.6),
+        Vec3::new(-0.9, 1.0, 0.6),
+    ];
+    for sphere in [true, false] {
+        let mut b = Builder::default();
+        floor_scene(&mut b);
+        let m = b.material(Material::Emission {
+            radiance: Vec3::splat(radiance),
+            one_sided: false,
+        });
+        if sphere {
+            b.sphere(center, radius, m);
+        } else {
+            b.triangle(tri[0], tri[1], tri[2], m);
+        }
+        let scene = b.build(top_down_camera(0.8));
+        let irradiance = |x: Vec3| {
+            let e = if sphere {
+                let d = (center - x).as_dvec3();
+                PI * radiance as f64 * (radius as f64 / d.length()).powi(2) * d.y / d.length()
+            } else {
+                radiance as f64 * polygon_irradiance(x, Vec3::Y, &tri)
+            };
+            ALBEDO as f64 / PI * e
+        };
+        let expected: Vec<f64> = floor_points(&scene, w, h)
+            .into_iter()
+            .map(irradiance)
+            .collect();
+        let mut s = settings(w, h, 1, 1);
+        s.integrator.light_samples = 256;
+        let est = channel(&render(&scene, &s, 2), 0);
+        // (The camera, at 0.8, looks down: below both emitters.)
+        let relative = |i: usize, j: usize| (est[i] - expected[j]).abs() / expected[j];
+        let worst = (0..est.len()).map(|i| relative(i, i)).fold(0.0, f64::max);
+        // Measured: 3.6e-4 (sphere) and 1.5e-3 (triangle) at most.
+        assert!(
+            worst <= 1e-2,
+            "sphere {sphere}: a pixel is off by {worst:e}"
+        );
+        // The test's power: each row's light changes by more than that
+        // from one pixel to the next somewhere, so an image whose lanes
+        // took their neighbours' points would fail.
+        let shifted = (0..est.len() - 1)
+            .filter(|i| (i + 1) % w as usize != 0)
+            .map(|i| relative(i, i + 1))
+            .fold(0.0, f64::max);
+        assert!(
+            shifted > 3e-2,
+            "sphere {sphere}: neighbours differ by {shifted:e}"
+        );
+    }
+}
+
 #[test]
 fn adaptive_and_fixed_sampling_agree() {
     // The off-centre furnace: every pixel's value differs, and so does its
