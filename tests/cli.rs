@@ -903,6 +903,11 @@ fn bvh_cost_view_and_traversal_counters() {
             .lines()
             .find(|l| l.starts_with("traversal:"))
             .unwrap_or_else(|| panic!("no traversal line: {err}"));
+        let tree = match accel {
+            "none" => "bvh: none (no tree: every ray tests every primitive; ",
+            _ => " wide nodes, depth ",
+        };
+        assert!(err.contains(tree), "{accel}: {err}");
         let (nodes, prims) = (
             per_ray(traversal, "nodes visited/ray"),
             per_ray(traversal, "primitives tested/ray"),

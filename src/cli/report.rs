@@ -91,11 +91,18 @@ pub fn stats(
         count(scene.materials.len(), ("material", "materials")),
         emitters(lights)
     );
+    let tree = match bvh.node_count() {
+        // --accel none, or nothing to build a tree over.
+        0 => "no tree: every ray tests every primitive".to_string(),
+        nodes => format!(
+            "{}, depth {}",
+            count(nodes, ("wide node", "wide nodes")),
+            bvh.depth()
+        ),
+    };
     eprintln!(
-        "bvh: {} ({}, depth {}, {:.1} KiB, {:.1} bytes/primitive)",
+        "bvh: {} ({tree}; {:.1} KiB, {:.1} bytes/primitive)",
         bvh.accel(),
-        count(bvh.node_count(), ("wide node", "wide nodes")),
-        bvh.depth(),
         bvh.memory_bytes() as f64 / 1024.0,
         bvh.memory_bytes() as f64 / bvh.primitive_count().max(1) as f64
     );
