@@ -712,20 +712,32 @@ fn images_are_bit_identical_across_threads_and_batch_sizes() {
             s.tile_size = 7;
             let two = render(&scene, &s, 2);
             assert!(one.pixels.iter().any(|p| *p != Vec3::ZERO));
-            assert_eq!(one.samples, two.samples);
             if s.adaptive.is_some() {
                 assert!(
                     one.samples.iter().any(|&n| n < s.spp),
                     "no pixel left the mask"
                 );
             }
-            for (a, b) in one.pixels.iter().zip(&two.pixels) {
-                assert_eq!(
-                    a.to_array().map(f32::to_bits),
-                    b.to_array().map(f32::to_bits)
-                );
-            }
+            assert_same_bits(&one, &two);
         }
+    }
+    // A small image, adaptive: one tile on one thread, cut into smaller
+    // ones for two (`Tile::split_for`), the same bits.
+    let (floor, _) = square_light_scene(false, 4.0);
+    let mut small = roulette_and_mask;
+    (small.width, small.height) = (12, 9);
+    assert!(wavepath::film::Tile::whole(12, 9).split_for(16, 2).len() > 1);
+    assert_same_bits(&render(&floor, &small, 1), &render(&floor, &small, 2));
+}
+
+/// Asserts two images hold the same sample counts and the same pixel bits.
+fn assert_same_bits(one: &Image, two: &Image) {
+    assert_eq!(one.samples, two.samples);
+    for (a, b) in one.pixels.iter().zip(&two.pixels) {
+        assert_eq!(
+            a.to_array().map(f32::to_bits),
+            b.to_array().map(f32::to_bits)
+        );
     }
 }
 
