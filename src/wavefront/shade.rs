@@ -77,9 +77,10 @@ fn hemisphere_probes(inputs: &ShadeInputs) -> u32 {
 /// or continuation ray is traced.
 fn light_can_be_found(inputs: &ShadeInputs) -> bool {
     let sources = &inputs.lights.sources;
-    match inputs.settings.hemisphere {
-        true => sources.iter().any(|light| !light.is_delta()),
-        false => !sources.is_empty(),
+    if inputs.settings.hemisphere {
+        sources.iter().any(|light| !light.is_delta())
+    } else {
+        !sources.is_empty()
     }
 }
 
