@@ -130,7 +130,8 @@ fn furnace_bounce_selection() {
 /// first bounce is ρ(1 − x·c)/d³ with I = π: it varies over the wall by a
 /// factor of sixteen. From the second bounce on the light is uniform
 /// again, because between any two points of a sphere cosθ·cosθ′/r² =
-/// 1/4R²: E₂ = Φ/4πR² ρ = ρI/R², so bounce k ≥ 2 brings exactly ρᵏ. Here
+/// 1/4R²: E₂(y) = ∫ L₁ dA / 4R² = (ρ/π)·Φ / 4R² with Φ = 4πI, i.e.
+/// ρI/R², so bounce k ≥ 2 brings exactly ρᵏ. Here
 /// (unlike the centred furnace) where the BSDF sends a path decides what
 /// it brings, and roulette weighs unequal channels.
 fn off_centre_furnace(light: Vec3, albedo: Vec3) -> Scene {
