@@ -994,8 +994,9 @@ fn thin_lens_blurs_an_edge_by_its_circle_of_confusion() {
     );
     let scene = b.build(camera(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 40.0, H));
     let view = scene.camera.view(W, H);
-    // Mean over the pixel's width of the lens fraction that sees the emitter.
-    let expected_column = |x: u32, f: f32| {
+    // Mean over the pixel's width of the lens fraction that sees the
+    // emitter, through a lens of radius `radius`.
+    let expected_column = |x: u32, f: f32, radius: f32| {
         const N: u32 = 256;
         let k = (radius * (1.0 - d / f).abs()) as f64;
         (0..N)
@@ -1016,11 +1017,11 @@ fn thin_lens_blurs_an_edge_by_its_circle_of_confusion() {
             / N as f64
     };
     for f in [d, 2.0 * d, 0.5 * d] {
-        let mut s = settings(W, H, 64, 0);
+        let mut s = settings(W, H, 256, 0);
         s.lens_radius = radius;
         s.focal_distance = f;
         let image = render(&scene, &s, 2);
-        let expected: Vec<f64> = (0..W).map(|x| expected_column(x, f)).collect();
+        let expected: Vec<f64> = (0..W).map(|x| expected_column(x, f, radius)).collect();
         if f != d {
             // The blur spans several columns; in focus only the edge's own.
             let partial = (0..W)
@@ -1041,16 +1042,49 @@ fn thin_lens_blurs_an_edge_by_its_circle_of_confusion() {
         // than one in 40,000 runs.
         let red = channel(&image, 0);
         let samples = (H * s.spp) as f64;
-        for x in 0..W as usize {
-            let mean = (0..H as usize)
-                .map(|row| red[row * W as usize + x])
-                .sum::<f64>()
-                / H as f64;
-            let want = expected[x];
-            let se = (want * (1.0 - want) / samples).sqrt();
+        let se = |want: f64| (want * (1.0 - want) / samples).sqrt();
+        let means: Vec<f64> = (0..W as usize)
+            .map(|x| {
+                (0..H as usize)
+                    .map(|row| red[row * W as usize + x])
+                    .sum::<f64>()
+                    / H as f64
+            })
+            .collect();
+        for (x, (&mean, &want)) in means.iter().zip(&expected).enumerate() {
             assert!(
-                (mean - want).abs() <= 5.0 * se + 1e-4,
-                "focus {f}, column {x}: {mean:.4}, expected {want:.4} ± {se:.1e}"
+                (mean - want).abs() <= 5.0 * se(want) + 1e-4,
+                "focus {f}, column {x}: {mean:.4}, expected {want:.4} ± {:.1e}",
+                se(want)
+            );
+        }
+        if f == d {
+            continue;
+        }
+        // Pooled over the columns: a blur too wide pulls every column
+        // toward ½ and one too narrow pushes it away, so the signed sum
+        // Σ (mean − e)·sgn(e − ½) over the columns (independent pixels)
+        // sees a lens radius that no single column can: z = 5 again.
+        let signed_sum = |want: &[f64]| -> f64 {
+            means
+                .iter()
+                .zip(want)
+                .map(|(&mean, &e)| (mean - e) * (e - 0.5).signum())
+                .sum()
+        };
+        let sigma = expected.iter().map(|&e| se(e).powi(2)).sum::<f64>().sqrt();
+        let z = signed_sum(&expected) / sigma;
+        assert!(z.abs() <= 5.0, "focus {f}: blur width off, z = {z:.2}");
+        // The test's power: against a lens 5% wider or narrower, this
+        // image's z would be out (measured 7.8–11; 0.1 against its own).
+        for scale in [1.05, 0.95] {
+            let other: Vec<f64> = (0..W)
+                .map(|x| expected_column(x, f, radius * scale))
+                .collect();
+            let z = signed_sum(&other) / sigma;
+            assert!(
+                z.abs() > 5.0,
+                "focus {f}: a lens of {scale}× the radius reads z = {z:.2}"
             );
         }
     }
