@@ -202,9 +202,11 @@ fn off_centre_furnace_matches_its_closed_form() {
                     .zip(&expected)
                     .map(|(e, x)| (e - x).abs() / x)
                     .fold(0.0, f64::max);
-                // Measured: 1.7e-3 at most at 16 spp.
+                // Measured: 1.7e-3 at most at 16 spp (a simulation of the
+                // scrambled net put the worst pixel of 20,000 images at
+                // 3.8e-3); a flipped or shifted image is off by far more.
                 assert!(
-                    worst <= 5e-3,
+                    worst <= 1e-2,
                     "channel {channel_index}: a pixel is off by {worst:e} of its value"
                 );
             }
@@ -653,6 +655,11 @@ fn progress_is_reported_after_every_pass() {
     let out = one_thread
         .install(|| renderer.render(&s, &|units| reports.lock().unwrap().push(units), &cancel));
     let reports = reports.into_inner().unwrap();
+    assert_eq!(
+        wavepath::film::Tile::whole(16, 16).split_for(16, 1).len(),
+        1
+    );
+    assert!(!reports.is_empty());
     let mut done = 0;
     for (k, units) in reports.iter().enumerate() {
         done += units;
@@ -728,7 +735,13 @@ fn images_are_bit_identical_across_threads_and_batch_sizes() {
     let mut small = roulette_and_mask;
     (small.width, small.height) = (12, 9);
     assert!(wavepath::film::Tile::whole(12, 9).split_for(16, 2).len() > 1);
-    assert_same_bits(&render(&floor, &small, 1), &render(&floor, &small, 2));
+    let one = render(&floor, &small, 1);
+    assert!(one.pixels.iter().any(|p| *p != Vec3::ZERO));
+    assert!(
+        one.samples.iter().any(|&n| n < small.spp),
+        "no pixel left the mask"
+    );
+    assert_same_bits(&one, &render(&floor, &small, 2));
 }
 
 /// Asserts two images hold the same sample counts and the same pixel bits.
@@ -1064,27 +1077,28 @@ fn thin_lens_blurs_an_edge_by_its_circle_of_confusion() {
         // Pooled over the columns: a blur too wide pulls every column
         // toward ½ and one too narrow pushes it away, so the signed sum
         // Σ (mean − e)·sgn(e − ½) over the columns (independent pixels)
-        // sees a lens radius that no single column can: z = 5 again.
-        let signed_sum = |want: &[f64]| -> f64 {
-            means
+        // moves with the lens radius: z = 5 again. It sees a lens 5%
+        // narrower, which the columns alone let through at this spp.
+        let signed_sum = |values: &[f64]| -> f64 {
+            values
                 .iter()
-                .zip(want)
-                .map(|(&mean, &e)| (mean - e) * (e - 0.5).signum())
+                .zip(&expected)
+                .map(|(&v, &e)| (v - e) * (e - 0.5).signum())
                 .sum()
         };
         let sigma = expected.iter().map(|&e| se(e).powi(2)).sum::<f64>().sqrt();
-        let z = signed_sum(&expected) / sigma;
+        let z = signed_sum(&means) / sigma;
         assert!(z.abs() <= 5.0, "focus {f}: blur width off, z = {z:.2}");
-        // The test's power: against a lens 5% wider or narrower, this
-        // image's z would be out (measured 7.8–11; 0.1 against its own).
+        // The test's power, from the closed forms alone: a lens 5% wider or
+        // narrower moves the expected sum by 7σ or more.
         for scale in [1.05, 0.95] {
             let other: Vec<f64> = (0..W)
                 .map(|x| expected_column(x, f, radius * scale))
                 .collect();
-            let z = signed_sum(&other) / sigma;
+            let shift = signed_sum(&other) / sigma;
             assert!(
-                z.abs() > 5.0,
-                "focus {f}: a lens of {scale}× the radius reads z = {z:.2}"
+                shift.abs() >= 7.0,
+                "focus {f}: a lens of {scale}× the radius moves z by {shift:.2}"
             );
         }
     }

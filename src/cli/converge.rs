@@ -23,9 +23,9 @@ use anyhow::{Context, Result, bail};
 use clap::parser::ValueSource;
 use clap::{CommandFactory, FromArgMatches, Parser, ValueEnum};
 
+use super::Args;
 use super::memory;
 use super::plot::{self, Curve};
-use super::{Args, usage_error};
 use crate::bvh::Bvh;
 use crate::film::output::{self, Format};
 use crate::film::{Image, metrics, replicates};
@@ -448,30 +448,36 @@ fn command() -> clap::Command {
     command
 }
 
+/// Exits on a bad flag value of `wavepath converge`, as clap does: the
+/// message, the usage line of converge's own [`command`], status 2.
+fn fail(msg: String) -> ! {
+    super::exit_with_usage(command(), msg)
+}
+
 /// Runs `wavepath converge`; `argv` starts with the subcommand's name.
 pub fn run(argv: Vec<OsString>) -> Result<i32> {
     let matches = command().get_matches_from(argv);
     let args = ConvergeArgs::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let from_command_line = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
     if let Some((_, why)) = NOT_USED.iter().find(|(id, _)| from_command_line(id)) {
-        usage_error::<ConvergeArgs>(why.to_string());
+        fail(why.to_string());
     }
     if args.make_reference && args.render.spp < 2 {
-        usage_error::<ConvergeArgs>(format!(
+        fail(format!(
             "--make-reference -s {}: a reference takes at least 2 samples per pixel (one \
              sample has no spread to measure its error by)",
             args.render.spp
         ));
     }
     if from_command_line("spp") && !args.make_reference {
-        usage_error::<ConvergeArgs>(
+        fail(
             "converge: -s sets the reference's samples per pixel, with --make-reference; \
              the budgets measured are 1, 2, 4, … up to --max-spp"
                 .into(),
         );
     }
     if args.render.shading != View::Path {
-        usage_error::<ConvergeArgs>(format!(
+        fail(format!(
             "--shading {}: converge measures the light-transport estimators (--shading path) \
              against a path-traced reference",
             clap_name(&args.render.shading)
@@ -482,7 +488,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("svg"))
     {
-        usage_error::<ConvergeArgs>(format!(
+        fail(format!(
             "--plot {}: the plot is written as SVG; give a .svg file name",
             plot.display()
         ));
@@ -491,10 +497,10 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         return plot_csv_files(&args);
     }
     let Some(reference_path) = args.reference.clone() else {
-        usage_error::<ConvergeArgs>("converge: --ref is required".into());
+        fail("converge: --ref is required".into());
     };
     if Format::from_path(&reference_path).ok() != Some(Format::Exr) {
-        usage_error::<ConvergeArgs>(format!(
+        fail(format!(
             "--ref {}: the reference must be an .exr file",
             reference_path.display()
         ));
@@ -502,22 +508,22 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     if let Some(s) = args.seconds
         && !(s > 0.0 && s.is_finite())
     {
-        usage_error::<ConvergeArgs>(format!("--seconds must be a positive number, got {s}"));
+        fail(format!("--seconds must be a positive number, got {s}"));
     }
     if let Some(t) = args.targets.iter().find(|t| !(**t > 0.0 && t.is_finite())) {
-        usage_error::<ConvergeArgs>(format!("--targets must be positive numbers, got {t}"));
+        fail(format!("--targets must be positive numbers, got {t}"));
     }
 
-    let (mut settings, _, _) = super::validate(&args.render, usage_error::<ConvergeArgs>);
+    let (mut settings, _, _) = super::validate(&args.render, fail);
     settings.adaptive = None;
     // Every render here estimates each pixel's average, as the reference
     // does: the 1-spp budget too takes a random point of the pixel, not
     // its centre (which would measure another image's error).
     settings.centre_single_sample = false;
     let estimators = match (args.make_reference, args.estimators.as_slice()) {
-        (true, [_, _, ..]) => usage_error::<ConvergeArgs>(
-            "--make-reference renders one estimator; give at most one in --estimators".into(),
-        ),
+        (true, [_, _, ..]) => {
+            fail("--make-reference renders one estimator; give at most one in --estimators".into())
+        }
         (_, []) => vec![Estimator::from_settings(&settings.integrator)],
         (_, chosen) => chosen.to_vec(),
     };
@@ -534,7 +540,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
         (2 * Image::BYTES_PER_PIXEL, "the reference and a render")
     };
     if let Some(why) = memory::does_not_fit(settings.area().pixel_count() as u64, per_pixel, what) {
-        usage_error::<ConvergeArgs>(format!("-r {} {}: {why}", settings.width, settings.height));
+        fail(format!("-r {} {}: {why}", settings.width, settings.height));
     }
     let plot_path = args
         .plot
@@ -547,7 +553,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     };
     for (flag, path) in outputs {
         if let Some(why) = super::unwritable(path) {
-            usage_error::<ConvergeArgs>(format!("{flag} {}: {why}", path.display()));
+            fail(format!("{flag} {}: {why}", path.display()));
         }
     }
     let chatty = !args.render.quiet;
@@ -859,7 +865,7 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
 /// `--plot-csv`: one curve per (file, estimator) of relMSE against wall time.
 fn plot_csv_files(args: &ConvergeArgs) -> Result<i32> {
     let Some(plot_path) = &args.plot else {
-        usage_error::<ConvergeArgs>("--plot-csv needs --plot <FILE.svg>".into());
+        fail("--plot-csv needs --plot <FILE.svg>".into());
     };
     let mut curves: Vec<Curve> = Vec::new();
     for path in &args.plot_csv {

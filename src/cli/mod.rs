@@ -59,7 +59,13 @@ fn scene_path(args: &Args) -> &std::path::Path {
 /// command's usage line, status 2. Every command refuses its flags so;
 /// status 1 is for the files it reads.
 fn usage_error<C: CommandFactory>(msg: String) -> ! {
-    C::command()
+    exit_with_usage(C::command(), msg)
+}
+
+/// [`usage_error`] for a command built by hand (converge's, whose flags
+/// differ from its parser's defaults).
+fn exit_with_usage(mut command: clap::Command, msg: String) -> ! {
+    command
         .error(clap::error::ErrorKind::ValueValidation, msg)
         .exit()
 }

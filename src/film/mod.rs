@@ -62,10 +62,11 @@ impl Tile {
     /// than two tiles per thread of several: tiles are the unit of parallel
     /// work, so a small image of many samples would otherwise keep threads
     /// idle (one 16 × 16 tile is one thread's work however many samples it
-    /// takes). A finished pixel gets the same value whatever the tiling; an
-    /// interrupted render keeps whole tiles (each takes all its samples
-    /// before the next starts), so smaller tiles leave more pixels unrendered
-    /// there, which is why one thread keeps `size`.
+    /// takes). A finished pixel gets the same value whatever the tiling. A
+    /// tile takes all its samples before a thread starts the next, so an
+    /// interrupted render has finished tiles, the passes its tiles in flight
+    /// finished, and pixels not started: with smaller tiles, more of those
+    /// for the same work, which is why one thread keeps `size`.
     pub fn split_for(&self, size: u32, workers: usize) -> Vec<Tile> {
         let mut size = size.max(1);
         let mut tiles = self.split(size);

@@ -46,13 +46,10 @@ pub struct ShadeInputs<'a> {
 /// wave's draws be made up front, eight paths at a time, and gives every
 /// vertex depth the same dimension pairs in every sample of a pixel, so
 /// each draw is stratified across the pixel's samples.
-fn vertex_blocks<'a>(inputs: &ShadeInputs<'a>) -> impl Iterator<Item = u32> + 'a {
+fn vertex_blocks<'a>(inputs: &ShadeInputs<'a>, light: WaveLight) -> impl Iterator<Item = u32> + 'a {
     let settings = inputs.settings;
     let sources = &inputs.lights.sources;
-    let probes = settings
-        .hemisphere
-        .then(|| hemisphere_probes(inputs))
-        .filter(|&n| n > 0);
+    let probes = (light.probes > 0).then_some(light.probes);
     let lights = sources
         .iter()
         .filter(move |light| !settings.hemisphere && !light.is_delta())
@@ -60,27 +57,35 @@ fn vertex_blocks<'a>(inputs: &ShadeInputs<'a>) -> impl Iterator<Item = u32> + 'a
     std::iter::once(1).chain(probes).chain(lights)
 }
 
-/// Probe rays per vertex with `-H`: `-l` per light (dark ones included,
-/// as the reference counts them; emissive meshes and spheres are lights
-/// here). None when no probe can find light (see [`light_can_be_found`]).
-fn hemisphere_probes(inputs: &ShadeInputs) -> u32 {
-    let lights = &inputs.lights;
-    if !light_can_be_found(inputs) {
-        return 0;
-    }
-    (lights.sources.len() + lights.dark) as u32 * inputs.settings.light_samples
+/// What light a wave's paths can find, decided once per wave.
+#[derive(Clone, Copy, Debug)]
+struct WaveLight {
+    /// Whether any ray can bring light to a path: some light emits, and
+    /// with `-H` some emitting light can be hit (point and directional
+    /// lights cannot be: no direction finds them). Where none can, no
+    /// shadow, probe or continuation ray is traced.
+    found: bool,
+    /// Probe rays per vertex with `-H` (0 without it, or where none can
+    /// find light): `-l` per light, dark ones included, as the reference
+    /// counts them; all the emissive triangles together are one light
+    /// here, each emissive sphere another.
+    probes: u32,
 }
 
-/// Whether any ray can bring light to a path: some light emits, and with
-/// `-H` some emitting light can be hit (point and directional lights
-/// cannot be: no direction finds them). Where none can, no shadow, probe
-/// or continuation ray is traced.
-fn light_can_be_found(inputs: &ShadeInputs) -> bool {
-    let sources = &inputs.lights.sources;
-    if inputs.settings.hemisphere {
-        sources.iter().any(|light| !light.is_delta())
-    } else {
-        !sources.is_empty()
+impl WaveLight {
+    fn of(inputs: &ShadeInputs) -> WaveLight {
+        let (lights, settings) = (inputs.lights, inputs.settings);
+        let found = if settings.hemisphere {
+            lights.sources.iter().any(|light| !light.is_delta())
+        } else {
+            !lights.sources.is_empty()
+        };
+        let probes = if settings.hemisphere && found {
+            (lights.sources.len() + lights.dark) as u32 * settings.light_samples
+        } else {
+            0
+        };
+        WaveLight { found, probes }
     }
 }
 
@@ -116,8 +121,8 @@ pub fn shade(
         show_view(settings.view, hits, surfaces, paths);
         return;
     }
-    draws.draw(&mut paths.stream, vertex_blocks(inputs));
-    let light_can_be_found = light_can_be_found(inputs);
+    let light = WaveLight::of(inputs);
+    draws.draw(&mut paths.stream, vertex_blocks(inputs, light));
     let n = paths.len();
     let (mut shadow, mut probes) = (shadow.writer(), probes.writer());
     for start in (0..n).step_by(LANES) {
@@ -153,11 +158,10 @@ pub fn shade(
                 start,
                 end,
                 diffuse,
-                light_can_be_found,
             };
             let brdf = (Vec3x8::gather(&albedo), Vec3x8::gather(&f));
             shade_diffuse(
-                inputs,
+                (inputs, light),
                 (paths, draws, surfaces),
                 &chunk,
                 brdf,
@@ -182,20 +186,18 @@ fn show_view(view: View, hits: &Hits, surfaces: &SurfacePoints, paths: &mut Path
 }
 
 /// Eight consecutive paths `start..end` of a wave, with the mask of those
-/// that hit a diffuse surface, and whether any ray can bring them light
-/// ([`light_can_be_found`], the same for the whole wave).
+/// that hit a diffuse surface.
 struct Chunk {
     start: usize,
     end: usize,
     diffuse: u32,
-    light_can_be_found: bool,
 }
 
 /// Shades the diffuse hits of a chunk (albedo and BRDF value per lane):
 /// next-event estimation into shadow (or probe) rays, then the next
 /// direction and Russian roulette.
 fn shade_diffuse(
-    inputs: &ShadeInputs,
+    (inputs, light): (&ShadeInputs, WaveLight),
     (paths, draws, surfaces): (&mut Paths, &VertexDraws, &SurfacePoints),
     chunk: &Chunk,
     (albedo, f): (Vec3x8, Vec3x8),
@@ -208,7 +210,7 @@ fn shade_diffuse(
     let throughput = Vec3x8::gather(&paths.throughput[chunk.start..chunk.end]);
     // Lanes that gather direct light, and lanes that may go on.
     let (mut direct, mut goes_on) = (0u32, 0u32);
-    let lit = chunk.light_can_be_found;
+    let lit = light.found;
     for lane in lanes::each(chunk.diffuse) {
         let depth = paths.depth[chunk.start + lane];
         if lit && depth < settings.max_depth && settings.counts_bounce(depth + 1) {
@@ -224,7 +226,7 @@ fn shade_diffuse(
             for lane in lanes::each(direct) {
                 let i = chunk.start + lane;
                 let (p, n, beta) = (p_out.lane(lane), sp.ns.lane(lane), beta.lane(lane));
-                direct_hemisphere(inputs, draws, i, p, n, beta, probes);
+                direct_hemisphere(light.probes, draws, i, p, n, beta, probes);
             }
         } else {
             let points = (sp.p, p_out, sp.ns);
@@ -370,10 +372,11 @@ fn push_shadow_rays(
     }
 }
 
-/// Direct lighting by uniform hemisphere sampling (`-H`): probe rays that
-/// count the emission they find. N = lights × `-l` directions, pdf = 1/2π.
+/// Direct lighting by uniform hemisphere sampling (`-H`): `count` probe
+/// rays that count the emission they find (N = lights × `-l` directions,
+/// see [`WaveLight::probes`]), pdf = 1/2π.
 fn direct_hemisphere(
-    inputs: &ShadeInputs,
+    count: u32,
     draws: &VertexDraws,
     i: usize,
     p: Vec3,
@@ -381,7 +384,6 @@ fn direct_hemisphere(
     beta: Vec3,
     probes: &mut ShadowWriter,
 ) {
-    let count = hemisphere_probes(inputs);
     let scale = 2.0 * std::f32::consts::PI / count as f32;
     for j in 0..count {
         let (u, v) = draws.point(i, FIRST_LIGHT_BLOCK, j);
