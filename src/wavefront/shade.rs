@@ -455,3 +455,53 @@ fn continue_paths(
         paths.alive[i] = true;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Triangles;
+
+    /// The draw blocks a vertex takes: the BSDF's, then `-l` per area-like
+    /// light, or with `-H` one block of all the probes, where a probe can
+    /// find light. (A block drawn and never used would only move the
+    /// others' dimensions, which no image mean can show.)
+    #[test]
+    fn vertices_draw_a_block_per_use() {
+        let point = LightSource::Point {
+            position: Vec3::Y,
+            intensity: Vec3::ONE,
+        };
+        let sky = LightSource::Hemisphere {
+            radiance: Vec3::ONE,
+        };
+        let triangles = TriangleRecords::new(&Triangles::default());
+        let blocks = |sources: Vec<LightSource>, dark: usize, hemisphere: bool| {
+            let lights = LightSet {
+                sources,
+                sky: Vec3::ZERO,
+                dark,
+            };
+            let settings = Settings {
+                hemisphere,
+                light_samples: 3,
+                ..Settings::default()
+            };
+            let inputs = ShadeInputs {
+                geometry: &Geometry::default(),
+                triangles: &triangles,
+                surfaces: &[],
+                lights: &lights,
+                settings: &settings,
+            };
+            vertex_blocks(&inputs, WaveLight::of(&inputs)).collect::<Vec<u32>>()
+        };
+        // Light sampling: -l draws for the sky, none for the point light.
+        assert_eq!(blocks(vec![point.clone(), sky.clone()], 1, false), [1, 3]);
+        assert_eq!(blocks(vec![point.clone()], 0, false), [1]);
+        // -H: one block of (lights + dark) × -l probes, or none where no
+        // probe can find light.
+        assert_eq!(blocks(vec![point.clone(), sky], 1, true), [1, 9]);
+        assert_eq!(blocks(vec![point], 1, true), [1]);
+        assert_eq!(blocks(vec![], 0, true), [1]);
+    }
+}
