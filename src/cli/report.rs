@@ -231,8 +231,43 @@ impl ProgressLines {
 
 #[cfg(test)]
 mod tests {
-    use super::{ProgressLines, samples_taken};
+    use super::{LightSet, LightSource, ProgressLines, emitters, samples_taken};
+    use glam::Vec3;
     use std::time::Duration;
+
+    /// Emitters of one kind are added up, in the order first met; the
+    /// emissive triangles count one by one; lights of colour 0 come last.
+    #[test]
+    fn emitters_are_counted_by_kind() {
+        let point = LightSource::Point {
+            position: Vec3::Y,
+            intensity: Vec3::ONE,
+        };
+        let mesh = |n: usize| LightSource::Mesh {
+            triangles: vec![[Vec3::X, Vec3::Y, Vec3::Z]; n],
+            radiance: vec![Vec3::ONE; n],
+            cdf: vec![1.0; n],
+            total_area: 1.0,
+            scene_extent: 1.0,
+        };
+        let sphere = LightSource::Sphere {
+            center: Vec3::ZERO,
+            radius: 1.0,
+            radiance: Vec3::ONE,
+        };
+        let set = |sources: Vec<LightSource>, dark: usize| LightSet {
+            sources,
+            sky: Vec3::ZERO,
+            dark,
+        };
+        assert_eq!(
+            emitters(&set(vec![point.clone(), mesh(3), point, sphere], 2)),
+            "2 point lights, 3 emissive triangles, 1 emissive sphere, 2 lights of colour 0"
+        );
+        assert_eq!(emitters(&set(vec![mesh(1)], 0)), "1 emissive triangle");
+        assert_eq!(emitters(&set(vec![], 1)), "1 light of colour 0");
+        assert_eq!(emitters(&set(vec![], 0)), "none");
+    }
 
     #[test]
     fn progress_lines_come_at_most_once_per_interval() {

@@ -229,10 +229,14 @@ mod tests {
         };
         let small = Tile::whole(16, 12);
         assert_eq!(small.split(16).len(), 1);
+        // Halving stops at the first side that gives two tiles per thread.
         let shared = small.split_for(16, 2);
-        assert!(shared.len() >= 4, "{shared:?}");
-        assert!(shared.iter().all(|t| t.width <= 8 && t.height <= 8));
+        assert_eq!(shared, small.split(8));
+        assert_eq!(shared.len(), 4);
         assert!(covered(&shared, 16, 12));
+        // Six 16 × 16 tiles are too few for four threads; 8 × 8 gives 24.
+        assert_eq!(Tile::whole(48, 32).split_for(16, 4).len(), 24);
+        assert_eq!(Tile::whole(48, 32).split_for(16, 3).len(), 6);
         // Never below the smallest side, even for more threads than pixels.
         let tiny = Tile::whole(5, 3);
         let tiles = tiny.split_for(16, 64);
