@@ -38,6 +38,7 @@ use super::flatten::{ChildRef, WideNode};
 use super::traverse::{ClosestLanes, Cull, Ray8Src, Scene, T_FAR_MARGIN, Work, slab_test};
 use super::triangle::PacketTri;
 use super::{Lanes, WIDTH};
+use crate::lanes::per_axis;
 
 /// Batch slots (of [`WIDTH`] rays) in the widest packet.
 pub(crate) const MAX_SLOTS: usize = 2;
@@ -188,11 +189,11 @@ impl<L: RayLanes> Packet<L> {
             (o_slots[s], d_slots[s]) = (o, d);
         }
         debug_assert!(active != 0, "a packet has at least one ray");
-        let d = [0, 1, 2].map(|axis| L::from_slots(|s| d_slots[s][axis]));
+        let d = per_axis(|axis| L::from_slots(|s| d_slots[s][axis]));
         let packet = Packet {
-            o: [0, 1, 2].map(|axis| L::from_slots(|s| o_slots[s][axis])),
+            o: per_axis(|axis| L::from_slots(|s| o_slots[s][axis])),
             d,
-            inv: [0, 1, 2].map(|axis| L::from_slots(|s| slots[s].inv()[axis])),
+            inv: per_axis(|axis| L::from_slots(|s| slots[s].inv()[axis])),
             near,
             slack: L::from_slots(|s| slots[s].slack()),
             lead: lane_vec(&d, active.trailing_zeros() as usize),
@@ -221,8 +222,8 @@ impl<L: RayLanes> Packet<L> {
         let n = self.near;
         let plane = |side: usize, axis: usize| L::splat(b[axis][side].as_array()[slot]);
         let (m, t_enter) = slab_test(
-            [0, 1, 2].map(|a| plane(n[a], a)),
-            [0, 1, 2].map(|a| plane(1 - n[a], a)),
+            per_axis(|a| plane(n[a], a)),
+            per_axis(|a| plane(1 - n[a], a)),
             &self.o,
             &self.inv,
             cull,

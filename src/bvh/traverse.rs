@@ -42,7 +42,7 @@ use super::triangle::{
     GroupHit, PacketTri, RayTri, RayTriLanes, TriGroup, intersect_group, intersect_rays,
 };
 use super::{Lanes, WIDTH};
-use crate::lanes::{from_bits, to_bits};
+use crate::lanes::{from_bits, per_axis, to_bits};
 use crate::ray::NO_HIT;
 
 /// γ₃ = 3ε / (1 − 3ε) for f32 (ε = 2⁻²⁴, half an ULP of 1).
@@ -110,7 +110,8 @@ impl RayBox {
         let b = &node.bounds;
         // `& 1`: the plane indices are 0 or 1, which lets the compiler drop
         // six bounds checks per node.
-        let (n, f) = (self.near.map(|n| n & 1), self.near.map(|n| (n ^ 1) & 1));
+        let n = per_axis(|a| self.near[a] & 1);
+        let f = per_axis(|a| (self.near[a] ^ 1) & 1);
         slab_test(
             [b[0][n[0]], b[1][n[1]], b[2][n[2]]],
             [b[0][f[0]], b[1][f[1]], b[2][f[2]]],
@@ -191,8 +192,8 @@ impl Cull {
     pub fn ray_box(&self, lane: usize, o: Vec3) -> RayBox {
         RayBox {
             o: [Lanes::splat(o.x), Lanes::splat(o.y), Lanes::splat(o.z)],
-            inv: [0, 1, 2].map(|axis| Lanes::splat(self.inv[axis][lane])),
-            near: self.negative.map(|m| ((m >> lane) & 1) as usize),
+            inv: per_axis(|axis| Lanes::splat(self.inv[axis][lane])),
+            near: per_axis(|axis| ((self.negative[axis] >> lane) & 1) as usize),
             slack: self.slack[lane],
         }
     }
@@ -249,8 +250,8 @@ pub(crate) fn may_hit(bounds: &[[f32; 3]; 2], extent: f32, rays: &Ray8Src, start
     // NaN of a ray lying in a face plane).
     let positive = inv.map(|i| i.simd_ge(Lanes::ZERO));
     let (lo, hi) = (bounds[0].map(Lanes::splat), bounds[1].map(Lanes::splat));
-    let near = [0, 1, 2].map(|a| positive[a].select(lo[a], hi[a]));
-    let far = [0, 1, 2].map(|a| positive[a].select(hi[a], lo[a]));
+    let near = per_axis(|a| positive[a].select(lo[a], hi[a]));
+    let far = per_axis(|a| positive[a].select(hi[a], lo[a]));
     // Cull slack (see `SLACK_ULPS`): 32ε·(extent + |o|∞)/|d|∞, with 1/|d|∞
     // taken as the smallest |1/dᵢ| (the same value, as division is
     // correctly rounded and monotone).

@@ -35,7 +35,7 @@
 
 use glam::Vec3;
 
-use crate::lanes::Vec3x8;
+use crate::lanes::{Vec3x8, per_axis};
 use crate::scene::Triangles;
 
 use super::{Lanes, TRI_WIDTH, TriLanes, WIDTH};
@@ -180,7 +180,7 @@ impl RayTriLanes {
         RayTri {
             k,
             s: std::array::from_fn(|j| self.shear[j][lane]),
-            o: k.map(|axis| o[axis]),
+            o: per_axis(|i| o[k[i]]),
         }
     }
 
@@ -198,7 +198,7 @@ impl RayTriLanes {
         Some(RayTriPacket {
             k,
             s: self.shear.map(TriLanes::from),
-            o: k.map(|axis| o[axis]),
+            o: per_axis(|i| o[k[i]]),
         })
     }
 }
