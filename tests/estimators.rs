@@ -417,10 +417,18 @@ fn hemisphere_sampling_light_sampling_and_one_bounce_agree() {
     );
 }
 
+/// Irradiance at floor point `x` (normal +y) from a sphere of radiance
+/// `radiance` fully above the floor's horizon: E = π L (r/d)² cos θ, d
+/// the distance to its centre.
+fn sphere_irradiance(x: Vec3, center: Vec3, radius: f32, radiance: f32) -> f64 {
+    let d = (center - x).as_dvec3();
+    let dist = d.length();
+    PI * radiance as f64 * (radius as f64 / dist).powi(2) * d.y / dist
+}
+
 #[test]
 fn sphere_light_matches_the_closed_form() {
-    // A sphere of radiance L fully above the floor's horizon gives
-    // E = π L (r/d)² cos θ at a floor point at distance d from its centre.
+    // See `sphere_irradiance`.
     let (w, h) = (W, H);
     let (center, radius, radiance) = (Vec3::new(-0.3, 1.2, 0.2), 0.4f32, 3.0f32);
     let mut b = Builder::default();
@@ -432,11 +440,7 @@ fn sphere_light_matches_the_closed_form() {
     b.sphere(center, radius, m);
     let scene = b.build(top_down_camera(0.8));
     let expected = pixel_average(&scene, w, h, |x| {
-        let d = (center - x).as_dvec3();
-        let dist = d.length();
-        let cos = d.y / dist;
-        let e = PI * radiance as f64 * (radius as f64 / dist).powi(2) * cos;
-        ALBEDO as f64 / PI * e
+        ALBEDO as f64 / PI * sphere_irradiance(x, center, radius, radiance)
     });
     let mut s = settings(w, h, 16, 1);
     s.integrator.light_samples = 4;
@@ -487,8 +491,7 @@ fn light_samples_land_on_their_own_pixels() {
         let scene = b.build(top_down_camera(0.8));
         let irradiance = |x: Vec3| {
             let e = if sphere {
-                let d = (center - x).as_dvec3();
-                PI * radiance as f64 * (radius as f64 / d.length()).powi(2) * d.y / d.length()
+                sphere_irradiance(x, center, radius, radiance)
             } else {
                 radiance as f64 * polygon_irradiance(x, Vec3::Y, &tri)
             };
@@ -623,14 +626,8 @@ fn adaptive_tests_span_passes() {
 fn progress_is_reported_after_every_pass() {
     let (scene, _) = square_light_scene(false, 4.0);
     let s = settings(16, 16, 256, 1);
-    let bvh = wavepath::bvh::Bvh::build(&scene.geometry, wavepath::bvh::Accel::Sah);
-    let renderer = wavepath::wavefront::Renderer::new(&scene, &bvh);
-    let reports = std::sync::Mutex::new(Vec::new());
-    let cancel = std::sync::atomic::AtomicBool::new(false);
-    let out = renderer.render(&s, &|units| reports.lock().unwrap().push(units), &cancel);
-    assert!(out.complete);
-    let reports = reports.into_inner().unwrap();
-    let tiles = wavepath::film::Tile::whole(16, 16).split_for(16, rayon::current_num_threads());
+    let (_, reports) = render_reporting(&scene, &s, 2);
+    let tiles = wavepath::film::Tile::whole(16, 16).split_for(16, 2);
     assert_eq!(reports.len(), 4 * tiles.len(), "{reports:?}");
     assert_eq!(reports.iter().sum::<u64>(), 16 * 16 * 256);
 
@@ -640,21 +637,12 @@ fn progress_is_reported_after_every_pass() {
     // at the end of its tile.
     let (c, albedo) = (Vec3::new(0.6, 0.0, 0.0), Vec3::splat(ALBEDO));
     let scene = off_centre_furnace(c, albedo);
-    let bvh = wavepath::bvh::Bvh::build(&scene.geometry, wavepath::bvh::Accel::Sah);
-    let renderer = wavepath::wavefront::Renderer::new(&scene, &bvh);
     let mut s = settings(16, 16, 256, 2);
     s.adaptive = Some(Adaptive {
         samples_per_batch: 16,
         tolerance: 0.05,
     });
-    let reports = std::sync::Mutex::new(Vec::new());
-    let one_thread = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
-    let out = one_thread
-        .install(|| renderer.render(&s, &|units| reports.lock().unwrap().push(units), &cancel));
-    let reports = reports.into_inner().unwrap();
+    let (image, reports) = render_reporting(&scene, &s, 1);
     assert_eq!(
         wavepath::film::Tile::whole(16, 16).split_for(16, 1).len(),
         1
@@ -664,15 +652,14 @@ fn progress_is_reported_after_every_pass() {
     for (k, units) in reports.iter().enumerate() {
         done += units;
         let taken = 16 * (k as u32 + 1);
-        let expected: u64 = out
-            .image
+        let expected: u64 = image
             .samples
             .iter()
             .map(|&n| u64::from(if n <= taken { 256 } else { taken }))
             .sum();
         assert_eq!(done, expected, "after {taken} samples: {reports:?}");
     }
-    let stops: std::collections::BTreeSet<u32> = out.image.samples.iter().copied().collect();
+    let stops: std::collections::BTreeSet<u32> = image.samples.iter().copied().collect();
     assert!(stops.len() >= 3, "pixels stopped at {stops:?}");
 }
 

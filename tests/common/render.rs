@@ -1,6 +1,7 @@
 //! Building scenes in code and rendering them, for estimator tests.
 
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Mutex;
+use std::sync::atomic::AtomicBool;
 
 use glam::{Mat3, Vec3};
 use wavepath::bvh::{Accel, Bvh};
@@ -78,6 +79,15 @@ impl Builder {
 /// Renders on a pool of `threads` threads and checks that no pixel is NaN
 /// or infinite, and that the progress reported adds up to the whole work.
 pub fn render(scene: &Scene, settings: &RenderSettings, threads: usize) -> Image {
+    render_reporting(scene, settings, threads).0
+}
+
+/// [`render`], also returning the progress reports in the order they came.
+pub fn render_reporting(
+    scene: &Scene,
+    settings: &RenderSettings,
+    threads: usize,
+) -> (Image, Vec<u64>) {
     let bvh = Bvh::build(&scene.geometry, Accel::Sah);
     let renderer = Renderer::new(scene, &bvh);
     let pool = rayon::ThreadPoolBuilder::new()
@@ -85,14 +95,13 @@ pub fn render(scene: &Scene, settings: &RenderSettings, threads: usize) -> Image
         .build()
         .unwrap();
     let cancel = AtomicBool::new(false);
-    let progress = AtomicU64::new(0);
-    let on_progress = |units: u64| {
-        progress.fetch_add(units, Ordering::Relaxed);
-    };
+    let reports = Mutex::new(Vec::new());
+    let on_progress = |units: u64| reports.lock().unwrap().push(units);
     let out = pool.install(|| renderer.render(settings, &on_progress, &cancel));
+    let reports = reports.into_inner().unwrap();
     assert!(out.complete);
     assert_eq!(
-        progress.into_inner(),
+        reports.iter().sum::<u64>(),
         Renderer::progress_total(settings),
         "the progress reported is not the whole work"
     );
@@ -101,7 +110,7 @@ pub fn render(scene: &Scene, settings: &RenderSettings, threads: usize) -> Image
         0,
         "a rendered pixel is NaN or infinite"
     );
-    out.image
+    (out.image, reports)
 }
 
 /// World-space ray direction through the centre of pixel (x, row) (row 0 at the top).
