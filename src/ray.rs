@@ -68,6 +68,7 @@ impl Rays {
         }
     }
 
+    #[inline(always)]
     pub(crate) fn components_mut(&mut self) -> [&mut Vec<f32>; 7] {
         [
             &mut self.org_x,
@@ -93,7 +94,13 @@ impl Rays {
 
     /// Appends the first `n` of eight rays given component by component
     /// (origin x, y, z, direction x, y, z, `t_max`; one array each).
-    #[inline]
+    ///
+    /// This and [`extend_lanes`](Self::extend_lanes) run once per eight
+    /// rays in the stages' inner loops; left to the optimiser's judgement
+    /// (`#[inline]`), they were compiled out of line, and the array `map`
+    /// below as a call, after unrelated changes elsewhere in the crate (a
+    /// 2% slower render, PERF.md).
+    #[inline(always)]
     pub fn extend_arrays(&mut self, n: usize, components: &[[f32; LANES]; 7]) {
         for (component, values) in self.components_mut().into_iter().zip(components) {
             lanes::extend(component, values, n);
@@ -101,11 +108,19 @@ impl Rays {
     }
 
     /// Appends the first `n` of eight rays held lane-wise.
-    #[inline]
+    #[inline(always)]
     pub fn extend_lanes(&mut self, n: usize, origin: Vec3x8, direction: Vec3x8, t_max: f32x8) {
         let (o, d) = (origin, direction);
-        let lanes = [o.x, o.y, o.z, d.x, d.y, d.z, t_max];
-        self.extend_arrays(n, &lanes.map(f32x8::to_array));
+        let lanes = [
+            o.x.to_array(),
+            o.y.to_array(),
+            o.z.to_array(),
+            d.x.to_array(),
+            d.y.to_array(),
+            d.z.to_array(),
+            t_max.to_array(),
+        ];
+        self.extend_arrays(n, &lanes);
     }
 
     #[inline]

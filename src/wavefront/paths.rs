@@ -190,7 +190,9 @@ impl ShadowWriter<'_> {
         }
     }
 
-    /// Appends the staged rays.
+    /// Appends the staged rays (inlined for the same reason as
+    /// [`Rays::extend_arrays`](crate::ray::Rays::extend_arrays)).
+    #[inline(always)]
     fn flush(&mut self) {
         let (n, s, out) = (self.count, &self.staged, &mut *self.out);
         out.rays.extend_arrays(n, &s.rays);
