@@ -429,14 +429,16 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
         assert!(err.starts_with(start), "{err}");
         assert!(err.contains("GiB of memory is available"), "{err}");
     };
-    // 64 M pixels: 1.8 GiB of image and PNG buffer, against under 1 GB
-    // of address space.
+    // 64 M pixels: 1.8 GiB of image and PNG buffer and 0.14 GiB of sums
+    // for the 2 M pixels rendered at once, against under 1 GB of address
+    // space.
     let (out_arg, big) = (out.to_str().unwrap(), ["-r", "8000", "8000"]);
     refused(
         &[&["-q"], &big[..], &["-f", out_arg, scene]].concat(),
         2,
-        "error: -r 8000 8000: the image and its PNG encoding alone need 1.8 GiB \
-         (31 bytes per pixel), and ",
+        "error: -r 8000 8000: the image and its PNG encoding and the sums of the pixels \
+         being rendered alone need 2.0 GiB (31 bytes per pixel, and 72 for each of at most \
+         2097152 pixels rendered at once), and ",
     );
     assert!(!out.exists());
     // A small cell of the same image fits, and renders (on two threads,
@@ -451,8 +453,8 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     // A reference holds a replicate and the replicates' running sums: 16 M
-    // pixels of them (1.0 GiB) do not fit where a render's image and its
-    // PNG buffer (0.46 GiB) would.
+    // pixels of them (1.0 GiB, and the sums) do not fit where a render's
+    // image and its PNG buffer (0.46 GiB, and the sums) would.
     let reference = scratch("too_large_reference.exr");
     let ref_arg = reference.to_str().unwrap();
     refused(
@@ -467,8 +469,9 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
             scene,
         ],
         2,
-        "error: -r 4000 4000: a replicate and the replicates' running sums alone need \
-         1.0 GiB (68 bytes per pixel), and ",
+        "error: -r 4000 4000: a replicate and the replicates' running sums and the sums \
+         of the pixels being rendered alone need 1.2 GiB (68 bytes per pixel, and 72 for \
+         each of at most 2097152 pixels rendered at once), and ",
     );
     assert!(!reference.exists());
     // Measuring holds the reference and a render (converge writes no
@@ -476,8 +479,9 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
     refused(
         &[&["converge"], &big[..], &["--ref", ref_arg, scene]].concat(),
         2,
-        "error: -r 8000 8000: the reference and a render alone need 3.3 GiB \
-         (56 bytes per pixel), and ",
+        "error: -r 8000 8000: the reference and a render and the sums of the pixels being \
+         rendered alone need 3.5 GiB (56 bytes per pixel, and 72 for each of at most \
+         2097152 pixels rendered at once), and ",
     );
 }
 
@@ -568,10 +572,11 @@ fn ctrl_c_writes_what_was_rendered() {
     let out = scratch("interrupted.exr");
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
     // Far more work than the test waits for (adaptive, at a tolerance no
-    // pixel meets).
+    // pixel meets), in passes of 32 samples (~0.3 s each over the image
+    // here on two threads).
     let child = Command::new(env!("CARGO_BIN_EXE_wavepath"))
         .args([
-            "-s", "100000", "-a", "32", "0.00001", "-m", "5", "-r", "320", "240", "-f",
+            "-s", "100000", "-a", "32", "0.00001", "-m", "5", "-r", "160", "120", "-f",
         ])
         .arg(&out)
         .arg(scene)
@@ -602,6 +607,17 @@ fn ctrl_c_writes_what_was_rendered() {
         image.pixels.iter().any(|p| p.max_element() > 0.0),
         "nothing was kept"
     );
+    // Tiles take their passes in turn: the whole image is sampled, every
+    // pixel within one pass of every other.
+    let (least, most) = (
+        image.samples.iter().min().unwrap(),
+        image.samples.iter().max().unwrap(),
+    );
+    assert!(
+        *least >= 32 && most - least <= 32 && least % 32 == 0,
+        "{least}..{most} samples"
+    );
+    assert!(err.contains("19200 of 19200 pixels rendered"), "{err}");
 }
 
 #[test]

@@ -4,10 +4,11 @@
 //! out-of-memory killer, after the scene had loaded and rendered.
 //!
 //! Only what grows with `-r` is counted, exactly: for a render, the
-//! finished image (the renderer stores each tile into it as soon as the
-//! tile is done, so the tiles' own sums are only those in flight) and the
-//! buffer its file is encoded from; for `converge`, the two images it
-//! holds at once (see there). The scene, BVH, threads and allocator come
+//! finished image, the sums of the pixels being rendered (all of them up
+//! to 2^21 pixels, which take their passes together; see
+//! [`pass_state_bytes`]) and the buffer its file is encoded from; for
+//! `converge`, the two images it holds at once (see there) and the same
+//! sums. The scene, BVH, threads and allocator come
 //! on top, so a render that passes may still not fit; one that fails
 //! certainly would not. The memory available is read from Linux's /proc
 //! (what the kernel could give without swapping anything else out, plus
@@ -16,6 +17,7 @@
 
 use crate::film::Image;
 use crate::film::output::Format;
+use crate::wavefront::{PASS_STATE_BYTES_PER_PIXEL, PROGRESSIVE_PIXELS, pass_state_bytes};
 
 /// Bytes per pixel of the buffer an image file is encoded from: 8-bit
 /// RGB for a PNG; f32 R, G, B and the sample count for an EXR.
@@ -71,8 +73,8 @@ pub fn image_does_not_fit(pixels: u64, format: Format) -> Option<String> {
 }
 
 /// The refusal when `what`, `per_pixel` bytes for each of `pixels`
-/// pixels, cannot fit, or None (also when the machine does not say what is
-/// available).
+/// pixels, and the sums of the pixels being rendered cannot fit, or None
+/// (also when the machine does not say what is available).
 pub fn does_not_fit(pixels: u64, per_pixel: u64, what: &str) -> Option<String> {
     let read = |path: &str| std::fs::read_to_string(path).unwrap_or_default();
     let free = available(
@@ -84,14 +86,16 @@ pub fn does_not_fit(pixels: u64, per_pixel: u64, what: &str) -> Option<String> {
 }
 
 /// The message when `what`, `per_pixel` bytes for each of `pixels` pixels,
-/// needs more than `free` bytes.
+/// and the sums of the pixels being rendered need more than `free` bytes.
 fn refusal(pixels: u64, per_pixel: u64, what: &str, free: u64) -> Option<String> {
-    let need = pixels * per_pixel;
+    let need = pixels * per_pixel + pass_state_bytes(pixels);
     let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
     (need > free).then(|| {
         format!(
-            "{what} alone need {:.1} GiB ({per_pixel} bytes per pixel), and {:.1} GiB of \
-             memory is available",
+            "{what} and the sums of the pixels being rendered alone need {:.1} GiB \
+             ({per_pixel} bytes per pixel, and {PASS_STATE_BYTES_PER_PIXEL} for each of \
+             at most {PROGRESSIVE_PIXELS} pixels rendered at once), and {:.1} GiB of memory \
+             is available",
             gib(need),
             gib(free)
         )
@@ -136,12 +140,19 @@ mod tests {
         let png = Image::BYTES_PER_PIXEL + encoding_bytes_per_pixel(Format::Png);
         assert_eq!((exr, png), (44, 31));
         let e = refusal(pixels, exr, "the image and its EXR encoding", 4 << 30).unwrap();
+        // 16000² · 44 bytes and 2^21 · 72 bytes of sums.
         assert_eq!(
             e,
-            "the image and its EXR encoding alone need 10.5 GiB (44 bytes per pixel), \
-             and 4.0 GiB of memory is available"
+            "the image and its EXR encoding and the sums of the pixels being rendered alone \
+             need 10.6 GiB (44 bytes per pixel, and 72 for each of at most 2097152 pixels \
+             rendered at once), and 4.0 GiB of memory is available"
         );
-        assert_eq!(refusal(pixels, png, "", pixels * 31), None);
-        assert!(refusal(pixels, png, "", pixels * 31 - 1).is_some());
+        let sums = (1 << 21) * 72;
+        assert_eq!(refusal(pixels, png, "", pixels * 31 + sums), None);
+        assert!(refusal(pixels, png, "", pixels * 31 + sums - 1).is_some());
+        // A small image's pixels are all rendered at once.
+        assert_eq!(pass_state_bytes(1000), 72_000);
+        assert!(refusal(1000, png, "", 1000 * (31 + 72) - 1).is_some());
+        assert_eq!(refusal(1000, png, "", 1000 * (31 + 72)), None);
     }
 }

@@ -1,8 +1,9 @@
 //! Film: per-pixel accumulation, the adaptive-sampling mask, image output,
 //! and references combined from independent replicates.
 //!
-//! The film is written tile by tile: each render task owns a [`TileFilm`]
-//! and hands it back when done, so accumulation needs no locks.
+//! The film is written tile by tile: a tile's passes add to its own
+//! [`TileFilm`], which is stored into the [`Image`] when the tile is done,
+//! so accumulation needs no locks.
 
 pub mod adaptive;
 pub mod metrics;
@@ -61,12 +62,10 @@ impl Tile {
     /// (halving, down to [`MIN_SHARED_TILE`]) where `size` would leave fewer
     /// than two tiles per thread of several: tiles are the unit of parallel
     /// work, so a small image of many samples would otherwise keep threads
-    /// idle (one 16 × 16 tile is one thread's work however many samples it
-    /// takes). A finished pixel gets the same value whatever the tiling. A
-    /// tile takes all its samples before a thread starts the next, so an
-    /// interrupted render has finished tiles, the passes its tiles in flight
-    /// finished, and pixels not started: with smaller tiles, more of those
-    /// for the same work, which is why one thread keeps `size`.
+    /// idle (a 16 × 16 tile's pass is one thread's work however many
+    /// samples it takes). A pixel gets the same value whatever the tiling.
+    /// One thread keeps `size`: smaller tiles would only make its waves
+    /// smaller.
     pub fn split_for(&self, size: u32, workers: usize) -> Vec<Tile> {
         let mut size = size.max(1);
         let mut tiles = self.split(size);
@@ -100,6 +99,12 @@ pub struct TileFilm {
 }
 
 impl TileFilm {
+    /// Bytes per pixel: f64 RGB sums of samples and of their squares,
+    /// f64 illuminance sums of both, and a u32 count.
+    pub const BYTES_PER_PIXEL: u64 = (2 * std::mem::size_of::<DVec3>()
+        + 2 * std::mem::size_of::<f64>()
+        + std::mem::size_of::<u32>()) as u64;
+
     pub fn new(tile: Tile) -> Self {
         let n = tile.pixel_count();
         TileFilm {

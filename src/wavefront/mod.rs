@@ -1,10 +1,14 @@
 //! The wavefront renderer: ray batches moving through separate stages.
 //!
-//! The image is cut into tiles, one rayon task each. A task samples its
-//! tile in passes; each pass gives every pixel still in the adaptive mask
-//! the same number of new samples, run as waves of paths:
+//! The image is cut into tiles, sampled in passes; each pass of a tile
+//! gives every pixel still in its adaptive mask the same number of new
+//! samples, run as waves of paths:
 //!
 //! generate → intersect → shade → shadow-test → compact (→ refill)
+//!
+//! The threads take tile passes progressively (every tile's first pass,
+//! then every tile's second, …; module `schedule`), so a render stopped
+//! early has sampled the whole image evenly.
 //!
 //! Every path's result lands in its own slot; at the end of a pass the
 //! slots are summed into the film in sample order. The image is therefore
@@ -14,17 +18,17 @@
 pub mod compact;
 pub mod generate;
 pub mod paths;
+mod schedule;
 pub mod shade;
 pub mod shadow;
 pub mod stats;
 pub mod surface;
 
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
+use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
 use glam::Vec3;
-use rayon::prelude::*;
 
 use crate::bvh::Bvh;
 use crate::film::adaptive::{Adaptive, converged};
@@ -37,6 +41,7 @@ use crate::scene::Scene;
 
 use generate::{CameraRays, PassQueue};
 use paths::{Paths, ShadowRays};
+use schedule::TileQueue;
 pub use stats::{Stage, Stats};
 
 /// Most samples per pixel in one pass, whatever `-a` asks: bounds the
@@ -122,9 +127,8 @@ pub struct Renderer<'a> {
     pub warnings: Vec<String>,
 }
 
-/// Buffers reused from tile to tile: rayon's `for_each_init` makes one per
-/// split of the tile list (a handful per thread, not one per tile), so
-/// tiles allocate almost nothing once the first few have grown them.
+/// Buffers reused from pass to pass: one per thread, so passes allocate
+/// almost nothing once the first few have grown them.
 #[derive(Default)]
 struct Scratch {
     paths: Paths,
@@ -166,6 +170,11 @@ impl<'a> Renderer<'a> {
     /// work done, in units of [`progress_total`](Self::progress_total): a
     /// pixel's samples, and when a pixel converges, the samples of `-s` it
     /// will not take.
+    ///
+    /// Tiles take their passes progressively (module `schedule`), in groups of
+    /// at most [`PROGRESSIVE_PIXELS`] pixels (a whole image of up to
+    /// 1920 × 1080): a group's tiles keep their sums until the group is
+    /// done, 72 bytes per pixel ([`PASS_STATE_BYTES_PER_PIXEL`]).
     pub fn render(
         &self,
         settings: &RenderSettings,
@@ -177,26 +186,44 @@ impl<'a> Renderer<'a> {
         // value; the image holds the region only.
         let area = settings.area();
         let tiles = area.split_for(settings.tile_size, rayon::current_num_threads());
-        // Each tile is stored into the image as soon as it is done, so only
-        // the tiles in flight hold their f64 sums: kept for the whole image
-        // until the end, they took 68 bytes per pixel more than the image's
-        // 28. One lock per tile (not per ray); a store writes only its own
-        // pixels and the counters add up exactly, so the order in which
-        // tiles finish changes nothing.
-        let totals = Mutex::new((Image::new(area.width, area.height), Stats::default(), true));
-        tiles
-            .par_iter()
-            .for_each_init(Scratch::default, |scratch, &tile| {
-                let (film, s, done) =
-                    self.render_tile(settings, tile, cancel, on_progress, scratch);
-                {
-                    let mut totals = totals.lock().unwrap_or_else(|e| e.into_inner());
-                    totals.0.store(&film, area);
-                    totals.1 += s;
-                    totals.2 &= done;
+        let mut image = Image::new(area.width, area.height);
+        let mut stats = Stats::default();
+        let mut complete = true;
+        for group in progressive_groups(&tiles) {
+            let states: Vec<Mutex<TileState>> = group
+                .iter()
+                .map(|&tile| Mutex::new(TileState::new(tile)))
+                .collect();
+            let queue = TileQueue::new(states.len());
+            // One worker per thread, each with its own buffers for the
+            // whole group. The locks are taken once per tile pass, and a
+            // tile's only by the thread rendering it.
+            let per_thread = rayon::broadcast(|_| {
+                let mut scratch = Scratch::default();
+                let mut stats = Stats::default();
+                while let Some((pass, t)) = queue.take(cancel) {
+                    let mut state = states[t].lock().unwrap_or_else(PoisonError::into_inner);
+                    stats += self.render_pass(settings, &mut state, on_progress, &mut scratch);
+                    let more = !state.finished(settings.spp);
+                    queue.pass_done(t, more.then_some(pass + 1));
                 }
+                stats
             });
-        let (mut image, stats, complete) = totals.into_inner().unwrap_or_else(|e| e.into_inner());
+            for s in per_thread {
+                stats += s;
+            }
+            for state in states {
+                let state = state.into_inner().unwrap_or_else(PoisonError::into_inner);
+                image.store(&state.film, area);
+                // Counted from the film, so that an interrupted render
+                // counts the passes it finished.
+                stats.samples += state.film.count.iter().map(|&n| n as u64).sum::<u64>();
+                complete &= state.finished(settings.spp);
+            }
+            if !complete {
+                break;
+            }
+        }
         if settings.integrator.view == View::BvhCost {
             // The film holds the mean traversal steps per pixel: map to a
             // heat scale (whose top is the image's, or the region's, most).
@@ -224,16 +251,23 @@ impl<'a> Renderer<'a> {
         settings.area().pixel_count() as u64 * u64::from(settings.spp)
     }
 
-    fn render_tile(
+    /// Renders the next pass of one tile: `test_every` samples (at most
+    /// [`MAX_PASS`]) for each pixel still in its mask, then the
+    /// convergence test where one is due.
+    fn render_pass(
         &self,
         settings: &RenderSettings,
-        tile: Tile,
-        cancel: &AtomicBool,
+        state: &mut TileState,
         on_progress: &(dyn Fn(u64) + Sync),
         scratch: &mut Scratch,
-    ) -> (TileFilm, Stats, bool) {
-        let mut film = TileFilm::new(tile);
+    ) -> Stats {
         let mut stats = Stats::default();
+        let TileState {
+            film,
+            active,
+            taken,
+        } = state;
+        let tile = film.tile;
         let view = self.scene.camera.view(settings.width, settings.height);
         let cam = CameraRays {
             camera: &self.scene.camera,
@@ -265,119 +299,201 @@ impl<'a> Renderer<'a> {
         } = scratch;
         paths.truncate(0);
         cost.resize(capacity, 0);
-        let mut active: Vec<u32> = (0..tile.pixel_count() as u32).collect();
-        // Samples between convergence tests.
-        let test_every = settings
-            .adaptive
-            .map_or(MAX_PASS, |a| a.samples_per_batch)
-            .max(1);
-        let mut taken = 0;
+        let test_every = samples_between_tests(settings);
         let want_cost = integrator.view == View::BvhCost;
-
-        let mut done = true;
-        while taken < settings.spp && !active.is_empty() {
-            if cancel.load(Ordering::Relaxed) {
-                done = false;
+        let n_pass = (test_every - *taken % test_every)
+            .min(MAX_PASS)
+            .min(settings.spp - *taken);
+        slots.clear();
+        slots.resize(active.len() * n_pass as usize, Vec3::ZERO);
+        let mut queue = PassQueue {
+            tile,
+            active,
+            samples_per_pixel: n_pass,
+            first_sample: *taken,
+            next: 0,
+        };
+        loop {
+            let t = Instant::now();
+            let generated = generate::refill(paths, capacity, &mut queue, &cam);
+            stats.generate.record(generated, t);
+            if paths.is_empty() {
                 break;
             }
-            let n_pass = (test_every - taken % test_every)
-                .min(MAX_PASS)
-                .min(settings.spp - taken);
-            slots.clear();
-            slots.resize(active.len() * n_pass as usize, Vec3::ZERO);
-            let mut queue = PassQueue {
-                tile,
-                active: &active,
-                samples_per_pixel: n_pass,
-                first_sample: taken,
-                next: 0,
-            };
-            loop {
-                let t = Instant::now();
-                let generated = generate::refill(paths, capacity, &mut queue, &cam);
-                stats.generate.record(generated, t);
-                if paths.is_empty() {
-                    break;
-                }
 
-                let t = Instant::now();
-                let cost_out = want_cost.then(|| &mut cost[..paths.len()]);
-                self.bvh
-                    .intersect(&paths.rays, hits, &mut stats.traversal, cost_out);
-                stats.intersect.record(paths.len(), t);
-                if want_cost {
-                    for (r, &c) in paths.radiance.iter_mut().zip(cost.iter()) {
-                        *r = Vec3::splat(c as f32);
-                    }
-                }
-
-                let t = Instant::now();
-                shadow.clear();
-                probes.clear();
-                shade::shade(&inputs, hits, paths, shading, shadow, probes);
-                stats.shade.record(paths.len(), t);
-
-                if !shadow.is_empty() {
-                    let t = Instant::now();
-                    shadow::resolve_shadow_rays(
-                        self.bvh,
-                        shadow,
-                        occluded,
-                        paths,
-                        &mut stats.traversal,
-                    );
-                    stats.shadow.record(shadow.len(), t);
-                }
-                if !probes.is_empty() {
-                    let t = Instant::now();
-                    shadow::resolve_probe_rays(
-                        self.bvh,
-                        probes,
-                        probe_hits,
-                        &self.scene.geometry,
-                        &self.surfaces,
-                        self.lights.sky,
-                        paths,
-                        &mut stats.traversal,
-                    );
-                    stats.probe.record(probes.len(), t);
-                }
-
-                let t = Instant::now();
-                let before = paths.len();
-                compact::compact(paths, slots);
-                stats.compact.record(before, t);
-            }
-
-            // Sum the pass into the film in sample order, then update the mask.
             let t = Instant::now();
-            for (&pixel, samples) in active.iter().zip(slots.chunks_exact(n_pass as usize)) {
-                film.add(pixel as usize, samples);
+            let cost_out = want_cost.then(|| &mut cost[..paths.len()]);
+            self.bvh
+                .intersect(&paths.rays, hits, &mut stats.traversal, cost_out);
+            stats.intersect.record(paths.len(), t);
+            if want_cost {
+                for (r, &c) in paths.radiance.iter_mut().zip(cost.iter()) {
+                    *r = Vec3::splat(c as f32);
+                }
             }
-            taken += n_pass;
-            let mut progress = active.len() as u64 * u64::from(n_pass);
-            if let Some(adaptive) = settings.adaptive
-                && taken % test_every == 0
-            {
-                let before = active.len();
-                active.retain(|&p| {
-                    let p = p as usize;
-                    !converged(
-                        film.count[p],
-                        film.illum_sum[p],
-                        film.illum_sq_sum[p],
-                        adaptive.tolerance,
-                    )
-                });
-                // The samples the converged pixels will not take count as done.
-                progress += (before - active.len()) as u64 * u64::from(settings.spp - taken);
+
+            let t = Instant::now();
+            shadow.clear();
+            probes.clear();
+            shade::shade(&inputs, hits, paths, shading, shadow, probes);
+            stats.shade.record(paths.len(), t);
+
+            if !shadow.is_empty() {
+                let t = Instant::now();
+                shadow::resolve_shadow_rays(
+                    self.bvh,
+                    shadow,
+                    occluded,
+                    paths,
+                    &mut stats.traversal,
+                );
+                stats.shadow.record(shadow.len(), t);
             }
-            stats.film.record(slots.len(), t);
-            on_progress(progress);
+            if !probes.is_empty() {
+                let t = Instant::now();
+                shadow::resolve_probe_rays(
+                    self.bvh,
+                    probes,
+                    probe_hits,
+                    &self.scene.geometry,
+                    &self.surfaces,
+                    self.lights.sky,
+                    paths,
+                    &mut stats.traversal,
+                );
+                stats.probe.record(probes.len(), t);
+            }
+
+            let t = Instant::now();
+            let before = paths.len();
+            compact::compact(paths, slots);
+            stats.compact.record(before, t);
         }
-        // Counted from the film, so that a tile cut short by Ctrl-C counts
-        // the passes it finished.
-        stats.samples += film.count.iter().map(|&n| n as u64).sum::<u64>();
-        (film, stats, done)
+
+        // Sum the pass into the film in sample order, then update the mask.
+        let t = Instant::now();
+        for (&pixel, samples) in active.iter().zip(slots.chunks_exact(n_pass as usize)) {
+            film.add(pixel as usize, samples);
+        }
+        *taken += n_pass;
+        let mut progress = active.len() as u64 * u64::from(n_pass);
+        if let Some(adaptive) = settings.adaptive
+            && *taken % test_every == 0
+        {
+            let before = active.len();
+            active.retain(|&p| {
+                let p = p as usize;
+                !converged(
+                    film.count[p],
+                    film.illum_sum[p],
+                    film.illum_sq_sum[p],
+                    adaptive.tolerance,
+                )
+            });
+            // The samples the converged pixels will not take count as done.
+            progress += (before - active.len()) as u64 * u64::from(settings.spp - *taken);
+        }
+        stats.film.record(slots.len(), t);
+        on_progress(progress);
+        stats
+    }
+}
+
+/// Samples between convergence tests (and the most a pass takes, when
+/// not adaptive, is [`MAX_PASS`]).
+fn samples_between_tests(settings: &RenderSettings) -> u32 {
+    settings
+        .adaptive
+        .map_or(MAX_PASS, |a| a.samples_per_batch)
+        .max(1)
+}
+
+/// The pixels of the tiles whose sums a render keeps at once: 2^21, so an
+/// image of up to 1920 × 1080 takes all its passes progressively as one
+/// group; a larger one is rendered group by group (bands of rows), each
+/// progressively.
+pub const PROGRESSIVE_PIXELS: usize = 1 << 21;
+
+/// What a tile keeps between its passes, per pixel: its film's sums and
+/// count, and its place in the adaptive mask.
+pub const PASS_STATE_BYTES_PER_PIXEL: u64 = TileFilm::BYTES_PER_PIXEL + 4;
+
+/// The bytes a render of `pixels` pixels keeps between passes, besides
+/// its image: the pass state of one group.
+pub fn pass_state_bytes(pixels: u64) -> u64 {
+    pixels.min(PROGRESSIVE_PIXELS as u64) * PASS_STATE_BYTES_PER_PIXEL
+}
+
+/// `tiles` cut into runs of consecutive tiles of at most
+/// [`PROGRESSIVE_PIXELS`] pixels (a tile larger than that is a run alone).
+fn progressive_groups(tiles: &[Tile]) -> Vec<&[Tile]> {
+    let mut groups = Vec::new();
+    let (mut start, mut pixels) = (0, 0);
+    for (i, tile) in tiles.iter().enumerate() {
+        if pixels > 0 && pixels + tile.pixel_count() > PROGRESSIVE_PIXELS {
+            groups.push(&tiles[start..i]);
+            (start, pixels) = (i, 0);
+        }
+        pixels += tile.pixel_count();
+    }
+    if start < tiles.len() {
+        groups.push(&tiles[start..]);
+    }
+    groups
+}
+
+/// One tile between its passes.
+struct TileState {
+    film: TileFilm,
+    /// The tile's pixels still sampled (local indices): the adaptive mask.
+    active: Vec<u32>,
+    /// Samples taken by every pixel still in the mask.
+    taken: u32,
+}
+
+impl TileState {
+    fn new(tile: Tile) -> TileState {
+        TileState {
+            film: TileFilm::new(tile),
+            active: (0..tile.pixel_count() as u32).collect(),
+            taken: 0,
+        }
+    }
+
+    /// No pass left: every sample taken, or every pixel converged.
+    fn finished(&self, spp: u32) -> bool {
+        self.taken >= spp || self.active.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Groups are runs of whole tiles in order, each of at most
+    /// [`PROGRESSIVE_PIXELS`] pixels (up to 1920 × 1080: one group), and
+    /// together they are every tile once.
+    #[test]
+    fn progressive_groups_cover_the_tiles_within_the_budget() {
+        let pixels = |g: &[Tile]| g.iter().map(Tile::pixel_count).sum::<usize>();
+        let hd = Tile::whole(1920, 1080).split(16);
+        assert_eq!(progressive_groups(&hd), [&hd[..]]);
+        for (w, h) in [(4000, 4000), (2049, 1024), (16, 16)] {
+            let tiles = Tile::whole(w, h).split(16);
+            let groups = progressive_groups(&tiles);
+            assert_eq!(groups.concat(), tiles, "{w}x{h}");
+            assert!(groups.iter().all(|g| pixels(g) <= PROGRESSIVE_PIXELS));
+            // Each group but the last is full: one more tile would not fit.
+            for pair in groups.windows(2) {
+                assert!(pixels(pair[0]) + pair[1][0].pixel_count() > PROGRESSIVE_PIXELS);
+            }
+            let want = (w as usize * h as usize).div_ceil(PROGRESSIVE_PIXELS);
+            assert!(groups.len() >= want && groups.len() <= want + 1, "{w}x{h}");
+        }
+        // A tile larger than a group's budget is a group of its own.
+        let huge = [Tile::whole(2048, 2048), Tile::whole(1, 1)];
+        assert_eq!(progressive_groups(&huge).len(), 2);
+        assert!(progressive_groups(&[]).is_empty());
+        assert_eq!(PASS_STATE_BYTES_PER_PIXEL, 72);
     }
 }

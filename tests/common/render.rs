@@ -1,13 +1,13 @@
 //! Building scenes in code and rendering them, for estimator tests.
 
 use std::sync::Mutex;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::{Mat3, Vec3};
 use wavepath::bvh::{Accel, Bvh};
 use wavepath::film::Image;
 use wavepath::scene::{Camera, Geometry, Light, Material, NamedMaterial, Scene};
-use wavepath::wavefront::{RenderSettings, Renderer};
+use wavepath::wavefront::{RenderOutput, RenderSettings, Renderer};
 
 /// A pinhole camera at `position` looking along `forward`, with vertical
 /// field of view `vfov` degrees for an image `height` pixels tall.
@@ -88,6 +88,25 @@ pub fn render_reporting(
     settings: &RenderSettings,
     threads: usize,
 ) -> (Image, Vec<u64>) {
+    let (out, reports) = render_until(scene, settings, threads, usize::MAX);
+    assert!(out.complete);
+    assert_eq!(
+        reports.iter().sum::<u64>(),
+        Renderer::progress_total(settings),
+        "the progress reported is not the whole work"
+    );
+    (out.image, reports)
+}
+
+/// Renders on a pool of `threads` threads, as Ctrl-C would stop it once
+/// `passes` tile passes have reported their progress; returns the output
+/// (no pixel NaN or infinite) and the reports.
+pub fn render_until(
+    scene: &Scene,
+    settings: &RenderSettings,
+    threads: usize,
+    passes: usize,
+) -> (RenderOutput, Vec<u64>) {
     let bvh = Bvh::build(&scene.geometry, Accel::Sah);
     let renderer = Renderer::new(scene, &bvh);
     let pool = rayon::ThreadPoolBuilder::new()
@@ -96,21 +115,20 @@ pub fn render_reporting(
         .unwrap();
     let cancel = AtomicBool::new(false);
     let reports = Mutex::new(Vec::new());
-    let on_progress = |units: u64| reports.lock().unwrap().push(units);
+    let on_progress = |units: u64| {
+        let mut reports = reports.lock().unwrap();
+        reports.push(units);
+        if reports.len() >= passes {
+            cancel.store(true, Ordering::Relaxed);
+        }
+    };
     let out = pool.install(|| renderer.render(settings, &on_progress, &cancel));
-    let reports = reports.into_inner().unwrap();
-    assert!(out.complete);
-    assert_eq!(
-        reports.iter().sum::<u64>(),
-        Renderer::progress_total(settings),
-        "the progress reported is not the whole work"
-    );
     assert_eq!(
         out.image.non_finite_count(),
         0,
         "a rendered pixel is NaN or infinite"
     );
-    (out.image, reports)
+    (out, reports.into_inner().unwrap())
 }
 
 /// World-space ray direction through the centre of pixel (x, row) (row 0 at the top).
