@@ -461,7 +461,10 @@ pub fn run() -> Result<i32> {
             scene_name.display()
         );
     }
-    output::write_image(&result.image, &output_path, args.tonemap, with_rate)?;
+    // An EXR holds the sample counts where they vary: adaptive sampling,
+    // or a render stopped between two passes of some tiles.
+    let with_counts = with_rate || !result.complete;
+    output::write_image(&result.image, &output_path, args.tonemap, with_counts)?;
     if with_rate {
         output::write_rate_png(&result.image, settings.spp, &rate_path)?;
     }

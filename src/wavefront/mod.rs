@@ -201,11 +201,12 @@ impl<'a> Renderer<'a> {
             let per_thread = rayon::broadcast(|_| {
                 let mut scratch = Scratch::default();
                 let mut stats = Stats::default();
-                while let Some((pass, t)) = queue.take(cancel) {
-                    let mut state = states[t].lock().unwrap_or_else(PoisonError::into_inner);
+                while let Some(pass) = queue.take(cancel) {
+                    let mut state = states[pass.tile]
+                        .lock()
+                        .unwrap_or_else(PoisonError::into_inner);
                     stats += self.render_pass(settings, &mut state, on_progress, &mut scratch);
-                    let more = !state.finished(settings.spp);
-                    queue.pass_done(t, more.then_some(pass + 1));
+                    pass.end(!state.finished(settings.spp));
                 }
                 stats
             });
