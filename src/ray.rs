@@ -97,9 +97,8 @@ impl Rays {
     ///
     /// This and [`extend_lanes`](Self::extend_lanes) run once per eight
     /// rays in the stages' inner loops; left to the optimiser's judgement
-    /// (`#[inline]`), they were compiled out of line, and the array `map`
-    /// below as a call, after unrelated changes elsewhere in the crate (a
-    /// 2% slower render, PERF.md).
+    /// (`#[inline]`), they were compiled out of line after unrelated
+    /// changes elsewhere in the crate (a 2% slower render, PERF.md).
     #[inline(always)]
     pub fn extend_arrays(&mut self, n: usize, components: &[[f32; LANES]; 7]) {
         for (component, values) in self.components_mut().into_iter().zip(components) {
@@ -111,6 +110,8 @@ impl Rays {
     #[inline(always)]
     pub fn extend_lanes(&mut self, n: usize, origin: Vec3x8, direction: Vec3x8, t_max: f32x8) {
         let (o, d) = (origin, direction);
+        // Written out, not `[…].map(f32x8::to_array)`: the optimiser has
+        // compiled such a `map` into a call (`core::array::try_map`).
         let lanes = [
             o.x.to_array(),
             o.y.to_array(),

@@ -539,7 +539,9 @@ pub fn run(argv: Vec<OsString>) -> Result<i32> {
     } else {
         (2 * Image::BYTES_PER_PIXEL, "the reference and a render")
     };
-    if let Some(why) = memory::does_not_fit(settings.area().pixel_count() as u64, per_pixel, what) {
+    if let Some(why) =
+        memory::converge_does_not_fit(settings.area().pixel_count() as u64, per_pixel, what)
+    {
         fail(format!("-r {} {}: {why}", settings.width, settings.height));
     }
     let plot_path = args

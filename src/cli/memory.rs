@@ -3,12 +3,12 @@
 //! allocation failure (an abort, not an error message) or the kernel's
 //! out-of-memory killer, after the scene had loaded and rendered.
 //!
-//! Only what grows with `-r` is counted, exactly: for a render, the
-//! finished image, the sums of the pixels being rendered (all of them up
-//! to 2^21 pixels, which take their passes together; see
-//! [`pass_state_bytes`]) and the buffer its file is encoded from; for
-//! `converge`, the two images it holds at once (see there) and the same
-//! sums. The scene, BVH, threads and allocator come
+//! Only what grows with `-r` is counted: for a render, the finished image
+//! and, at the most, either the sums of the pixels being rendered (all of
+//! them up to 2^21 pixels, which take their passes together; see
+//! [`pass_state_bytes`]) or, once those are freed, the buffer the file is
+//! encoded from; for `converge`, the two images it holds at once (see
+//! there) and the same sums. The scene, BVH, threads and allocator come
 //! on top, so a render that passes may still not fit; one that fails
 //! certainly would not. The memory available is read from Linux's /proc
 //! (what the kernel could give without swapping anything else out, plus
@@ -17,7 +17,7 @@
 
 use crate::film::Image;
 use crate::film::output::Format;
-use crate::wavefront::{PASS_STATE_BYTES_PER_PIXEL, PROGRESSIVE_PIXELS, pass_state_bytes};
+use crate::wavefront::pass_state_bytes;
 
 /// Bytes per pixel of the buffer an image file is encoded from: 8-bit
 /// RGB for a PNG; f32 R, G, B and the sample count for an EXR.
@@ -56,7 +56,7 @@ pub fn available(meminfo: &str, limits: &str, status: &str) -> Option<u64> {
     })
 }
 
-/// The refusal for an image of `pixels` pixels written as `format` that
+/// The refusal for a render of `pixels` pixels written as `format` that
 /// cannot fit, or None (also when the machine does not say what is
 /// available).
 pub fn image_does_not_fit(pixels: u64, format: Format) -> Option<String> {
@@ -64,38 +64,46 @@ pub fn image_does_not_fit(pixels: u64, format: Format) -> Option<String> {
         Format::Png => "PNG",
         Format::Exr => "EXR",
     };
-    let per_pixel = Image::BYTES_PER_PIXEL + encoding_bytes_per_pixel(format);
+    let what = format!("the image, the sums of the pixels being rendered and the {name} encoding");
+    does_not_fit(render_need(pixels, format), &what)
+}
+
+/// The most a render of `pixels` pixels written as `format` holds at
+/// once: its image, with the pass sums while it renders, then with the
+/// encoding buffer.
+fn render_need(pixels: u64, format: Format) -> u64 {
+    let encoding = pixels * encoding_bytes_per_pixel(format);
+    pixels * Image::BYTES_PER_PIXEL + pass_state_bytes(pixels).max(encoding)
+}
+
+/// The refusal for `converge`'s renders of `pixels` pixels, which hold
+/// `per_pixel` bytes a pixel of their own (`what`) besides the pass sums,
+/// or None.
+pub fn converge_does_not_fit(pixels: u64, per_pixel: u64, what: &str) -> Option<String> {
     does_not_fit(
-        pixels,
-        per_pixel,
-        &format!("the image and its {name} encoding"),
+        pixels * per_pixel + pass_state_bytes(pixels),
+        &format!("{what}, and the sums of the pixels being rendered,"),
     )
 }
 
-/// The refusal when `what`, `per_pixel` bytes for each of `pixels`
-/// pixels, and the sums of the pixels being rendered cannot fit, or None
-/// (also when the machine does not say what is available).
-pub fn does_not_fit(pixels: u64, per_pixel: u64, what: &str) -> Option<String> {
+/// The refusal when `what`, `need` bytes, cannot fit, or None (also when
+/// the machine does not say what is available).
+fn does_not_fit(need: u64, what: &str) -> Option<String> {
     let read = |path: &str| std::fs::read_to_string(path).unwrap_or_default();
     let free = available(
         &read("/proc/meminfo"),
         &read("/proc/self/limits"),
         &read("/proc/self/status"),
     )?;
-    refusal(pixels, per_pixel, what, free)
+    refusal(need, what, free)
 }
 
-/// The message when `what`, `per_pixel` bytes for each of `pixels` pixels,
-/// and the sums of the pixels being rendered need more than `free` bytes.
-fn refusal(pixels: u64, per_pixel: u64, what: &str, free: u64) -> Option<String> {
-    let need = pixels * per_pixel + pass_state_bytes(pixels);
+/// The message when `what` needs `need` bytes, more than `free`.
+fn refusal(need: u64, what: &str, free: u64) -> Option<String> {
     let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
     (need > free).then(|| {
         format!(
-            "{what} and the sums of the pixels being rendered alone need {:.1} GiB \
-             ({per_pixel} bytes per pixel, and {PASS_STATE_BYTES_PER_PIXEL} for each of \
-             at most {PROGRESSIVE_PIXELS} pixels rendered at once), and {:.1} GiB of memory \
-             is available",
+            "{what} need {:.1} GiB, and {:.1} GiB of memory is available",
             gib(need),
             gib(free)
         )
@@ -135,24 +143,23 @@ mod tests {
     #[test]
     fn an_image_that_does_not_fit_is_refused_with_both_sizes() {
         assert_eq!(Image::BYTES_PER_PIXEL, 28);
+        assert_eq!(encoding_bytes_per_pixel(Format::Png), 3);
+        assert_eq!(encoding_bytes_per_pixel(Format::Exr), 16);
+        // The image and the larger of its pixels' sums (72 bytes each,
+        // for at most 2^21 pixels) and its encoding.
         let pixels = 16000 * 16000;
-        let exr = Image::BYTES_PER_PIXEL + encoding_bytes_per_pixel(Format::Exr);
-        let png = Image::BYTES_PER_PIXEL + encoding_bytes_per_pixel(Format::Png);
-        assert_eq!((exr, png), (44, 31));
-        let e = refusal(pixels, exr, "the image and its EXR encoding", 4 << 30).unwrap();
-        // 16000² · 44 bytes and 2^21 · 72 bytes of sums.
+        assert_eq!(render_need(pixels, Format::Exr), pixels * (28 + 16));
+        assert_eq!(render_need(pixels, Format::Png), pixels * (28 + 3));
+        let hd = 1920 * 1080;
+        assert_eq!(render_need(hd, Format::Exr), hd * (28 + 72));
+        let sums = (1 << 21) * 72;
+        assert_eq!(render_need(40_000_000, Format::Png), 40_000_000 * 28 + sums);
+        let e = refusal(pixels * 44, "the image and so on", 4 << 30).unwrap();
         assert_eq!(
             e,
-            "the image and its EXR encoding and the sums of the pixels being rendered alone \
-             need 10.6 GiB (44 bytes per pixel, and 72 for each of at most 2097152 pixels \
-             rendered at once), and 4.0 GiB of memory is available"
+            "the image and so on need 10.5 GiB, and 4.0 GiB of memory is available"
         );
-        let sums = (1 << 21) * 72;
-        assert_eq!(refusal(pixels, png, "", pixels * 31 + sums), None);
-        assert!(refusal(pixels, png, "", pixels * 31 + sums - 1).is_some());
-        // A small image's pixels are all rendered at once.
-        assert_eq!(pass_state_bytes(1000), 72_000);
-        assert!(refusal(1000, png, "", 1000 * (31 + 72) - 1).is_some());
-        assert_eq!(refusal(1000, png, "", 1000 * (31 + 72)), None);
+        assert_eq!(refusal(5, "", 5), None);
+        assert!(refusal(6, "", 5).is_some());
     }
 }

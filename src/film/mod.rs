@@ -2,8 +2,8 @@
 //! and references combined from independent replicates.
 //!
 //! The film is written tile by tile: a tile's passes add to its own
-//! [`TileFilm`], which is stored into the [`Image`] when the tile is done,
-//! so accumulation needs no locks.
+//! [`TileFilm`], rendered by one thread at a time, which is stored into
+//! the [`Image`] once the render (or its group of tiles) is done.
 
 pub mod adaptive;
 pub mod metrics;

@@ -24,7 +24,7 @@ pub mod shadow;
 pub mod stats;
 pub mod surface;
 
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
@@ -44,13 +44,16 @@ use paths::{Paths, ShadowRays};
 use schedule::TileQueue;
 pub use stats::{Stage, Stats};
 
-/// Most samples per pixel in one pass, whatever `-a` asks: bounds the
-/// slot buffer (a pass's radiance, kept until it is summed in sample
-/// order) to 64 × 12 bytes per pixel of the tile. A convergence test
-/// every `samples_per_batch` above that spans several passes; as the film
-/// sums each pixel's samples one by one in sample order, the split
-/// changes no bit.
-const MAX_PASS: u32 = 64;
+/// Most samples per pixel in one pass, whatever `-a` asks. Small, so that
+/// every tile's first pass (the whole image at 16 samples) comes early
+/// and a stopped render has every pixel within 16 samples of every other;
+/// large enough that a 16 × 16 tile's pass is a full wave of 4096 paths.
+/// It bounds the slot buffer (a pass's radiance, kept until it is summed
+/// in sample order) to 16 × 12 bytes per pixel of the tile. A convergence
+/// test every `samples_per_batch` above that spans several passes; as the
+/// film sums each pixel's samples one by one in sample order, the split
+/// changes no bit (passes of 64 measured the same speed, PERF.md).
+const MAX_PASS: u32 = 16;
 
 /// What to render and how.
 #[derive(Clone, Copy, Debug)]
@@ -171,60 +174,103 @@ impl<'a> Renderer<'a> {
     /// pixel's samples, and when a pixel converges, the samples of `-s` it
     /// will not take.
     ///
-    /// Tiles take their passes progressively (module `schedule`), in groups of
-    /// at most [`PROGRESSIVE_PIXELS`] pixels (a whole image of up to
-    /// 1920 × 1080): a group's tiles keep their sums until the group is
-    /// done, 72 bytes per pixel ([`PASS_STATE_BYTES_PER_PIXEL`]).
+    /// Tiles take their passes progressively (module `schedule`), in groups
+    /// of at most [`PROGRESSIVE_PIXELS`] pixels; a tile keeps its sums from
+    /// its first pass to its last ([`pass_state_bytes`] for a group).
     pub fn render(
         &self,
         settings: &RenderSettings,
         on_progress: &(dyn Fn(u64) + Sync),
         cancel: &AtomicBool,
     ) -> RenderOutput {
+        self.render_in_groups(settings, on_progress, cancel, PROGRESSIVE_PIXELS)
+    }
+
+    /// [`render`](Self::render) with groups of at most `group_pixels`.
+    fn render_in_groups(
+        &self,
+        settings: &RenderSettings,
+        on_progress: &(dyn Fn(u64) + Sync),
+        cancel: &AtomicBool,
+        group_pixels: usize,
+    ) -> RenderOutput {
         // A region (`-p`) is rendered in place: each of its pixels draws the
         // random numbers it draws in a whole render, so it gets the same
         // value; the image holds the region only.
         let area = settings.area();
-        let tiles = area.split_for(settings.tile_size, rayon::current_num_threads());
-        let mut image = Image::new(area.width, area.height);
-        let mut stats = Stats::default();
+        let workers = rayon::current_num_threads();
+        let tiles = area.split_for(settings.tile_size, workers);
+        // Tiles are stored into the image as soon as they finish, so a tile
+        // of a single pass (a render of up to 16 samples) holds its sums
+        // only while it renders, as each thread's next tile reuses the
+        // memory; tiles of several passes hold theirs until their last.
+        let image = Mutex::new(Image::new(area.width, area.height));
+        let stats = Mutex::new(Stats::default());
+        let store = |state: TileState| {
+            lock(&image).store(&state.film, area);
+            // Counted from the film, so that an interrupted render counts
+            // the passes it finished.
+            lock(&stats).samples += state.film.count.iter().map(|&n| n as u64).sum::<u64>();
+        };
         let mut complete = true;
-        for group in progressive_groups(&tiles) {
-            let states: Vec<Mutex<TileState>> = group
-                .iter()
-                .map(|&tile| Mutex::new(TileState::new(tile)))
-                .collect();
-            let queue = TileQueue::new(states.len());
-            // One worker per thread, each with its own buffers for the
-            // whole group. The locks are taken once per tile pass, and a
-            // tile's only by the thread rendering it.
-            let per_thread = rayon::broadcast(|_| {
-                let mut scratch = Scratch::default();
-                let mut stats = Stats::default();
-                while let Some(pass) = queue.take(cancel) {
-                    let mut state = states[pass.tile]
-                        .lock()
-                        .unwrap_or_else(PoisonError::into_inner);
-                    stats += self.render_pass(settings, &mut state, on_progress, &mut scratch);
-                    pass.end(!state.finished(settings.spp));
-                }
-                stats
-            });
-            for s in per_thread {
-                stats += s;
+        // No samples, nothing to render: a black image, complete.
+        let groups = match settings.spp {
+            0 => Vec::new(),
+            _ => tile_groups(&tiles, group_pixels),
+        };
+        for group in groups {
+            if cancel.load(Ordering::Relaxed) {
+                complete = false;
+                break;
             }
-            for state in states {
-                let state = state.into_inner().unwrap_or_else(PoisonError::into_inner);
-                image.store(&state.film, area);
-                // Counted from the film, so that an interrupted render
-                // counts the passes it finished.
-                stats.samples += state.film.count.iter().map(|&n| n as u64).sum::<u64>();
-                complete &= state.finished(settings.spp);
+            let slots: Vec<Mutex<TileSlot>> = group
+                .iter()
+                .map(|_| Mutex::new(TileSlot::Waiting))
+                .collect();
+            let queue = TileQueue::new(0..group.len());
+            // One worker per thread, each with its own buffers for the
+            // whole group; the locks are taken once per tile pass.
+            rayon::scope(|scope| {
+                for _ in 0..workers {
+                    scope.spawn(|_| {
+                        let mut scratch = Scratch::default();
+                        let mut own = Stats::default();
+                        while !cancel.load(Ordering::Relaxed)
+                            && let Some((pass, t)) = queue.take()
+                        {
+                            let mut slot = lock(&slots[t]);
+                            let state = slot.start(group[t]);
+                            own += self.render_pass(settings, state, on_progress, &mut scratch);
+                            let more = !state.finished(settings.spp);
+                            if !more {
+                                store(slot.finish());
+                            }
+                            drop(slot);
+                            if more {
+                                queue.give_back(t, pass + 1);
+                            }
+                        }
+                        *lock(&stats) += own;
+                    });
+                }
+            });
+            // Tiles cut short by a stop keep the passes they finished.
+            for slot in slots {
+                match slot.into_inner().unwrap_or_else(PoisonError::into_inner) {
+                    TileSlot::Stored => {}
+                    TileSlot::Rendering(state) => {
+                        store(state);
+                        complete = false;
+                    }
+                    TileSlot::Waiting => complete = false,
+                }
             }
             if !complete {
                 break;
             }
         }
+        let mut image = image.into_inner().unwrap_or_else(PoisonError::into_inner);
+        let stats = stats.into_inner().unwrap_or_else(PoisonError::into_inner);
         if settings.integrator.view == View::BvhCost {
             // The film holds the mean traversal steps per pixel: map to a
             // heat scale (whose top is the image's, or the region's, most).
@@ -252,9 +298,10 @@ impl<'a> Renderer<'a> {
         settings.area().pixel_count() as u64 * u64::from(settings.spp)
     }
 
-    /// Renders the next pass of one tile: `test_every` samples (at most
-    /// [`MAX_PASS`]) for each pixel still in its mask, then the
-    /// convergence test where one is due.
+    /// Renders the next pass of one tile: for each pixel still in its
+    /// mask, the samples up to its next convergence test, at most
+    /// [`MAX_PASS`] and at most what is left of `-s`; then the test, where
+    /// one is due.
     fn render_pass(
         &self,
         settings: &RenderSettings,
@@ -411,13 +458,14 @@ fn samples_between_tests(settings: &RenderSettings) -> u32 {
 
 /// The pixels of the tiles whose sums a render keeps at once: 2^21, so an
 /// image of up to 1920 × 1080 takes all its passes progressively as one
-/// group; a larger one is rendered group by group (bands of rows), each
-/// progressively.
+/// group; a larger one is rendered group by group (runs of consecutive
+/// tiles, row-major), each progressively.
 pub const PROGRESSIVE_PIXELS: usize = 1 << 21;
 
 /// What a tile keeps between its passes, per pixel: its film's sums and
 /// count, and its place in the adaptive mask.
-pub const PASS_STATE_BYTES_PER_PIXEL: u64 = TileFilm::BYTES_PER_PIXEL + 4;
+pub const PASS_STATE_BYTES_PER_PIXEL: u64 =
+    TileFilm::BYTES_PER_PIXEL + std::mem::size_of::<u32>() as u64;
 
 /// The bytes a render of `pixels` pixels keeps between passes, besides
 /// its image: the pass state of one group.
@@ -425,13 +473,13 @@ pub fn pass_state_bytes(pixels: u64) -> u64 {
     pixels.min(PROGRESSIVE_PIXELS as u64) * PASS_STATE_BYTES_PER_PIXEL
 }
 
-/// `tiles` cut into runs of consecutive tiles of at most
-/// [`PROGRESSIVE_PIXELS`] pixels (a tile larger than that is a run alone).
-fn progressive_groups(tiles: &[Tile]) -> Vec<&[Tile]> {
+/// `tiles` cut into runs of consecutive tiles of at most `budget` pixels
+/// (a tile larger than that is a run alone).
+fn tile_groups(tiles: &[Tile], budget: usize) -> Vec<&[Tile]> {
     let mut groups = Vec::new();
     let (mut start, mut pixels) = (0, 0);
     for (i, tile) in tiles.iter().enumerate() {
-        if pixels > 0 && pixels + tile.pixel_count() > PROGRESSIVE_PIXELS {
+        if pixels > 0 && pixels + tile.pixel_count() > budget {
             groups.push(&tiles[start..i]);
             (start, pixels) = (i, 0);
         }
@@ -441,6 +489,12 @@ fn progressive_groups(tiles: &[Tile]) -> Vec<&[Tile]> {
         groups.push(&tiles[start..]);
     }
     groups
+}
+
+/// Locks `m`; a lock poisoned by a panic elsewhere still gives its data
+/// (the panic reaches the caller on its own).
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
 /// One tile between its passes.
@@ -467,34 +521,137 @@ impl TileState {
     }
 }
 
+/// Where a tile of a group is: not started, between passes, or done and
+/// stored into the image (its sums freed).
+enum TileSlot {
+    Waiting,
+    Rendering(TileState),
+    Stored,
+}
+
+impl TileSlot {
+    /// The tile's state, made at its first pass.
+    fn start(&mut self, tile: Tile) -> &mut TileState {
+        if let TileSlot::Waiting = self {
+            *self = TileSlot::Rendering(TileState::new(tile));
+        }
+        match self {
+            TileSlot::Rendering(state) => state,
+            TileSlot::Waiting | TileSlot::Stored => unreachable!("a stored tile is not queued"),
+        }
+    }
+
+    /// Takes the finished tile's state to be stored.
+    fn finish(&mut self) -> TileState {
+        match std::mem::replace(self, TileSlot::Stored) {
+            TileSlot::Rendering(state) => state,
+            TileSlot::Waiting | TileSlot::Stored => unreachable!("only a started tile finishes"),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bvh::Accel;
 
-    /// Groups are runs of whole tiles in order, each of at most
-    /// [`PROGRESSIVE_PIXELS`] pixels (up to 1920 × 1080: one group), and
-    /// together they are every tile once.
+    /// Groups are runs of whole tiles in order, each within the budget
+    /// (an image of up to 1920 × 1080: one group), and together they are
+    /// every tile once.
     #[test]
-    fn progressive_groups_cover_the_tiles_within_the_budget() {
+    fn tile_groups_cover_the_tiles_within_the_budget() {
         let pixels = |g: &[Tile]| g.iter().map(Tile::pixel_count).sum::<usize>();
+        let budget = PROGRESSIVE_PIXELS;
         let hd = Tile::whole(1920, 1080).split(16);
-        assert_eq!(progressive_groups(&hd), [&hd[..]]);
+        assert_eq!(tile_groups(&hd, budget), [&hd[..]]);
         for (w, h) in [(4000, 4000), (2049, 1024), (16, 16)] {
             let tiles = Tile::whole(w, h).split(16);
-            let groups = progressive_groups(&tiles);
+            let groups = tile_groups(&tiles, budget);
             assert_eq!(groups.concat(), tiles, "{w}x{h}");
-            assert!(groups.iter().all(|g| pixels(g) <= PROGRESSIVE_PIXELS));
+            assert!(groups.iter().all(|g| pixels(g) <= budget));
             // Each group but the last is full: one more tile would not fit.
             for pair in groups.windows(2) {
-                assert!(pixels(pair[0]) + pair[1][0].pixel_count() > PROGRESSIVE_PIXELS);
+                assert!(pixels(pair[0]) + pair[1][0].pixel_count() > budget);
             }
-            let want = (w as usize * h as usize).div_ceil(PROGRESSIVE_PIXELS);
-            assert!(groups.len() >= want && groups.len() <= want + 1, "{w}x{h}");
         }
-        // A tile larger than a group's budget is a group of its own.
+        // A tile larger than the budget is a group of its own.
         let huge = [Tile::whole(2048, 2048), Tile::whole(1, 1)];
-        assert_eq!(progressive_groups(&huge).len(), 2);
-        assert!(progressive_groups(&[]).is_empty());
-        assert_eq!(PASS_STATE_BYTES_PER_PIXEL, 72);
+        assert_eq!(tile_groups(&huge, budget).len(), 2);
+        assert!(tile_groups(&[], budget).is_empty());
+    }
+
+    /// Rendered group by group, an image has every pixel in its place
+    /// (the same bits as in one group); stopped in the first group, the
+    /// render says it is incomplete and never starts the next.
+    #[test]
+    fn groups_render_into_place_and_a_stop_ends_the_render() {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae"));
+        let scene = crate::scene::collada::load_file(path).unwrap();
+        let bvh = Bvh::build(&scene.geometry, Accel::Sah);
+        let renderer = Renderer::new(&scene, &bvh);
+        let settings = RenderSettings {
+            width: 40,
+            height: 24,
+            spp: 32,
+            tile_size: 8,
+            ..RenderSettings::default()
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let run = |group_pixels: usize, stop_after: usize| {
+            let cancel = AtomicBool::new(false);
+            let passes = std::sync::atomic::AtomicUsize::new(0);
+            let on_progress = |_| {
+                if passes.fetch_add(1, Ordering::Relaxed) + 1 >= stop_after {
+                    cancel.store(true, Ordering::Relaxed);
+                }
+            };
+            let out = pool.install(|| {
+                renderer.render_in_groups(&settings, &on_progress, &cancel, group_pixels)
+            });
+            (out, passes.into_inner())
+        };
+        // 15 tiles of 8 × 8, two passes each; groups of five tiles (a row
+        // of the image).
+        let (one, _) = run(PROGRESSIVE_PIXELS, usize::MAX);
+        let (rows, passes) = run(320, usize::MAX);
+        assert!(one.complete && rows.complete);
+        assert_eq!(passes, 30);
+        assert_eq!(one.image.samples, rows.image.samples);
+        assert!(one.image.samples.iter().all(|&n| n == 32));
+        for (a, b) in one.image.pixels.iter().zip(&rows.image.pixels) {
+            assert_eq!(
+                a.to_array().map(f32::to_bits),
+                b.to_array().map(f32::to_bits)
+            );
+        }
+        assert_eq!(one.stats.samples, 40 * 24 * 32);
+        assert_eq!(rows.stats.samples, 40 * 24 * 32);
+        // Stopped after two passes: some tiles of the first row have had
+        // their first pass (and the pass in flight on the other thread
+        // finishes), the other rows nothing.
+        let (stopped, passes) = run(320, 2);
+        assert!(!stopped.complete);
+        assert!((2..=3).contains(&passes), "{passes}");
+        let rendered = |rows: std::ops::Range<usize>| {
+            stopped.image.samples[rows.start * 40..rows.end * 40]
+                .iter()
+                .filter(|&&n| n > 0)
+                .count()
+        };
+        assert_eq!(rendered(0..8), passes * 64);
+        assert_eq!(rendered(8..24), 0);
+        assert_eq!(stopped.stats.samples, passes as u64 * 64 * 16);
+        // Nothing to render (no samples): complete, black.
+        let none = pool.install(|| {
+            renderer.render(
+                &RenderSettings { spp: 0, ..settings },
+                &|_| {},
+                &AtomicBool::new(false),
+            )
+        });
+        assert!(none.complete && none.image.samples.iter().all(|&n| n == 0));
     }
 }
