@@ -3,7 +3,7 @@
 //!
 //! The film is written tile by tile: a tile's passes add to its own
 //! [`TileFilm`], rendered by one thread at a time, which is stored into
-//! the [`Image`] once the render (or its group of tiles) is done.
+//! the [`Image`] when the tile's last pass ends (or the render stops).
 
 pub mod adaptive;
 pub mod metrics;

@@ -52,7 +52,7 @@ pub use stats::{Stage, Stats};
 /// in sample order) to 16 × 12 bytes per pixel of the tile. A convergence
 /// test every `samples_per_batch` above that spans several passes; as the
 /// film sums each pixel's samples one by one in sample order, the split
-/// changes no bit (passes of 64 measured the same speed, PERF.md).
+/// changes no bit. (Measured faster than passes of 8, 32 or 64: PERF.md.)
 const MAX_PASS: u32 = 16;
 
 /// What to render and how.
