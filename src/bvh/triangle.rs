@@ -344,13 +344,7 @@ fn test_pairs(
     let zero = TriLanes::ZERO;
     let any_zero = (u.simd_eq(zero) | v.simd_eq(zero) | w.simd_eq(zero)).to_bitmask();
     if any_zero != 0 {
-        refine_edges_f64(
-            any_zero,
-            [ax, ay, bx, by, cx, cy].map(TriLanes::to_array),
-            &mut u,
-            &mut v,
-            &mut w,
-        );
+        refine_edges_f64(any_zero, [ax, ay, bx, by, cx, cy], &mut u, &mut v, &mut w);
     }
 
     // Inside iff the three edge functions do not disagree in sign
@@ -389,13 +383,15 @@ fn test_pairs(
 #[inline(never)]
 fn refine_edges_f64(
     lanes: u32,
-    p: [[f32; TRI_WIDTH]; 6],
+    p: [TriLanes; 6],
     u: &mut TriLanes,
     v: &mut TriLanes,
     w: &mut TriLanes,
 ) {
     let (mut uu, mut vv, mut ww) = (u.to_array(), v.to_array(), w.to_array());
-    let [ax, ay, bx, by, cx, cy] = p;
+    // The arrays are made here, in the cold path: as an argument, their
+    // `map` was a call in every caller's hot loop.
+    let [ax, ay, bx, by, cx, cy] = p.map(TriLanes::to_array);
     let mut bits = lanes;
     while bits != 0 {
         let i = bits.trailing_zeros() as usize;
