@@ -155,16 +155,23 @@ pub fn stats(
 /// The samples per pixel on average and, when sampling was adaptive (up
 /// to `adaptive_max`), how many pixels stopped early: "64.0" alone would
 /// hide a few pixels that stopped at 32. After an interrupt (not
-/// `complete`) the average is over the pixels rendered (those of any
-/// sample), and pixels cut short cannot be told from pixels that
-/// converged, so no early count is given.
+/// `complete`) the average, and the range where counts differ, are over
+/// the pixels rendered (those of any sample), and pixels cut short cannot
+/// be told from pixels that converged, so no early count is given.
 fn samples_taken(samples: &[u32], adaptive_max: Option<u32>, complete: bool) -> String {
     let rendered = samples.iter().filter(|&&n| n > 0).count();
     let total: u64 = samples.iter().map(|&n| n as u64).sum();
     if !complete {
         let mean = total as f64 / rendered.max(1) as f64;
+        // Tiles take their passes in turn, so the rendered pixels' counts
+        // are a pass apart at most: the range says how even the image is.
+        let taken = samples.iter().copied().filter(|&n| n > 0);
+        let range = match (taken.clone().min(), taken.max()) {
+            (Some(least), Some(most)) if least < most => format!(" ({least} to {most})"),
+            _ => String::new(),
+        };
         return format!(
-            "interrupted: {rendered} of {} pixels rendered, {mean:.2} samples/pixel on average",
+            "interrupted: {rendered} of {} pixels rendered, {mean:.2} samples/pixel on average{range}",
             samples.len()
         );
     }
@@ -322,8 +329,13 @@ mod tests {
         for adaptive in [Some(64), None] {
             assert_eq!(
                 samples_taken(&cut, adaptive, false),
-                "interrupted: 3 of 5 pixels rendered, 53.33 samples/pixel on average"
+                "interrupted: 3 of 5 pixels rendered, 53.33 samples/pixel on average (32 to 64)"
             );
         }
+        // Every pixel at the same count: no range.
+        assert_eq!(
+            samples_taken(&[16, 16], None, false),
+            "interrupted: 2 of 2 pixels rendered, 16.00 samples/pixel on average"
+        );
     }
 }
