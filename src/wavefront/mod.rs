@@ -447,8 +447,8 @@ impl<'a> Renderer<'a> {
     }
 }
 
-/// Samples between convergence tests (and the most a pass takes, when
-/// not adaptive, is [`MAX_PASS`]).
+/// Samples between convergence tests; without adaptive sampling (no test
+/// is run) [`MAX_PASS`], so that passes are as long as they may be.
 fn samples_between_tests(settings: &RenderSettings) -> u32 {
     settings
         .adaptive
