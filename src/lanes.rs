@@ -14,7 +14,6 @@ use wide::{f32x8, i32x8};
 /// Lanes per register.
 pub const LANES: usize = 8;
 
-/// Lanes `start..start + 8` of `v`; past its end, zeros.
 /// `[f(0), f(1), f(2)]`: one value per axis, always inlined. The same as
 /// `[0, 1, 2].map(f)` where the optimiser inlines `array::map`, which in
 /// the traversal's per-node box tests it once stopped doing (an
@@ -25,6 +24,7 @@ pub fn per_axis<T>(f: impl Fn(usize) -> T) -> [T; 3] {
     [f(0), f(1), f(2)]
 }
 
+/// Lanes `start..start + 8` of `v`; past its end, zeros.
 #[inline(always)]
 pub fn load(v: &[f32], start: usize) -> f32x8 {
     match v.get(start..start + 8) {

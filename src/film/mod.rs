@@ -78,7 +78,7 @@ impl Tile {
 }
 
 /// The smallest tile side [`Tile::split_for`] goes down to: a pass of
-/// 32–64 samples over 16 pixels still makes waves of 512–1024 paths.
+/// 16 samples over 16 pixels still makes a wave of 256 paths.
 pub const MIN_SHARED_TILE: u32 = 4;
 
 /// Per-pixel statistics of one tile.
