@@ -20,11 +20,11 @@
 //! [`TriGroup`]s so that a leaf is one or two straight SIMD tests.
 //!
 //! Nodes are laid out depth first (a node's subtree follows it), which keeps
-//! a traversal's path through nearby memory. Large subtrees are flattened on
-//! other threads into arrays of their own and then appended with their
-//! references shifted; an unused slot is recognised there by its inverted
-//! box, since [`ChildRef::EMPTY`] shares its bits with a one-group leaf at
-//! index 0 (harmless in traversal, where such a slot is never entered).
+//! a traversal's path through nearby memory. The arrays are sized first and
+//! then written in place, large subtrees on other threads, each into the
+//! slice that its size cuts off (see [`flatten`]). An unused slot holds
+//! [`ChildRef::EMPTY`], which shares its bits with a one-group leaf at
+//! index 0; that is harmless, since its inverted box is never entered.
 
 use super::build::BuildNode;
 use super::collapse::Plan;
@@ -32,6 +32,9 @@ use super::sphere::PackedSphere;
 use super::triangle::TriGroup;
 use super::{Lanes, TRI_WIDTH, WIDTH};
 use crate::scene::Geometry;
+use std::collections::HashMap;
+use std::ops::Add;
+use std::sync::Mutex;
 
 /// One wide node: the bounds of up to [`WIDTH`] children, lane-wise.
 #[derive(Clone, Copy, Debug)]
@@ -118,54 +121,328 @@ pub(crate) struct Flat {
     pub depth: usize,
 }
 
-impl Flat {
-    fn empty() -> Flat {
-        Flat {
+/// Flattens the binary tree `root` whose leaves index `order`.
+///
+/// Two passes over the collapse plan, then one over the triangle groups.
+/// The first counts what each subtree lays out ([`Extent`]), so the arrays
+/// are allocated once at their final size; the second writes every node
+/// and sphere in place and, for each triangle group, which primitives go
+/// in it. Large subtrees are laid out on other threads, each into its own
+/// slice of the arrays, cut off by its extent. Last, the groups (320 bytes
+/// each, nearly all of a tree's memory) are packed in parallel straight
+/// into their array. Nothing is copied or regrown after it is written:
+/// appending subtrees laid out apart had copied the groups once per level
+/// of parallel nesting, 190 MB several times over for 4M triangles, with
+/// page faults on every regrowth (PERF.md).
+pub(crate) fn flatten(root: Option<&BuildNode>, order: &[u32], geometry: &Geometry) -> Flat {
+    let Some(root) = root else {
+        return Flat {
             nodes: Vec::new(),
             tri_groups: Vec::new(),
             spheres: Vec::new(),
             root: None,
             depth: 0,
-        }
-    }
-}
-
-/// Flattens the binary tree `root` whose leaves index `order`.
-pub(crate) fn flatten(root: Option<&BuildNode>, order: &[u32], geometry: &Geometry) -> Flat {
-    let Some(root) = root else {
-        return Flat::empty();
+        };
     };
     let plan = Plan::new(root, geometry.triangles.len() as u32, order);
-    flatten_plan(&plan, order, geometry)
-}
-
-/// Flattens the subtree of `plan` as a tree of its own (root at node 0).
-fn flatten_plan(plan: &Plan, order: &[u32], geometry: &Geometry) -> Flat {
-    let mut flat = Flat::empty();
-    let mut ctx = Ctx {
-        flat: &mut flat,
+    let layout = Layout {
         order,
         geometry,
+        parts: Mutex::new(HashMap::new()),
     };
     // The root is always an interior wide node, even for a single leaf, so
     // traversal can start with a box test unconditionally.
     let (slots, n) = match plan.children() {
-        Some(_) => wide_slots(plan),
-        None => ([plan; WIDTH], 1),
+        Some(_) => wide_slots(&plan),
+        None => ([&plan; WIDTH], 1),
     };
-    let depth = ctx.emit_node(&slots[..n]);
-    flat.root = Some(ChildRef::node(0));
-    flat.depth = depth;
-    flat
+    let slots = &slots[..n];
+    let total = layout.node_extent(slots);
+
+    let mut nodes = vec![EMPTY_NODE; total.nodes];
+    let mut groups = vec![GroupPrims::default(); total.groups];
+    let placeholder = PackedSphere {
+        center: glam::Vec3::ZERO,
+        radius: 0.0,
+        id: 0,
+    };
+    let mut spheres = vec![placeholder; total.spheres];
+    let mut region = Region {
+        nodes: &mut nodes,
+        groups: &mut groups,
+        spheres: &mut spheres,
+        base: Extent::default(),
+    };
+    let depth = layout.emit_node(slots, &mut region);
+    assert!(region.is_empty(), "the extent pass and the layout disagree");
+    let tri_groups = {
+        use rayon::prelude::*;
+        let tris = &geometry.triangles;
+        groups
+            .par_iter()
+            .map(|g| TriGroup::new(&order[g.start as usize..g.end as usize], tris))
+            .collect()
+    };
+    Flat {
+        nodes,
+        tri_groups,
+        spheres,
+        root: Some(ChildRef::node(0)),
+        depth,
+    }
 }
 
-/// Interior children with more primitives than this are flattened in parallel.
+/// Interior children with more primitives than this are counted and laid
+/// out in parallel (when a node has two or more of them).
 const PARALLEL_FLATTEN: u32 = 1 << 13;
 
-struct Ctx<'a> {
-    flat: &'a mut Flat,
+/// Whether slot `plan` is an interior subtree large enough for a thread.
+fn big(plan: &Plan) -> bool {
+    !plan.as_leaf() && plan.node.count() > PARALLEL_FLATTEN
+}
+
+/// Whether a wide node's big slots (two or more) go to other threads.
+fn parallel(slots: &[&Plan]) -> bool {
+    slots.iter().filter(|p| big(p)).count() > 1
+}
+
+/// Key of a subtree of the plan, which stays in place while it is laid out.
+fn key(plan: &Plan) -> usize {
+    plan as *const Plan as usize
+}
+
+/// The primitives of one triangle group: `order[start..end]`.
+#[derive(Clone, Copy, Debug, Default)]
+struct GroupPrims {
+    start: u32,
+    end: u32,
+}
+
+/// A wide node with every slot empty.
+const EMPTY_NODE: WideNode = WideNode {
+    bounds: [[Lanes::splat(f32::INFINITY), Lanes::splat(f32::NEG_INFINITY)]; 3],
+    child: [ChildRef::EMPTY; WIDTH],
+};
+
+/// How many wide nodes, triangle groups and spheres a subtree lays out —
+/// or, as a [`Region`]'s base, the index in the whole arrays of its first
+/// of each.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Extent {
+    nodes: usize,
+    groups: usize,
+    spheres: usize,
+}
+
+impl Add for Extent {
+    type Output = Extent;
+    fn add(self, o: Extent) -> Extent {
+        Extent {
+            nodes: self.nodes + o.nodes,
+            groups: self.groups + o.groups,
+            spheres: self.spheres + o.spheres,
+        }
+    }
+}
+
+/// The part of the output arrays that a subtree is laid out in; it is
+/// filled from the front, and `base` says where its front lies in the whole
+/// arrays (child references are global indices).
+struct Region<'o> {
+    nodes: &'o mut [WideNode],
+    groups: &'o mut [GroupPrims],
+    spheres: &'o mut [PackedSphere],
+    base: Extent,
+}
+
+impl<'o> Region<'o> {
+    /// Takes the first `e` of each array off the front, as a region of
+    /// its own.
+    fn take_front(&mut self, e: Extent) -> Region<'o> {
+        fn split<'s, T>(v: &mut &'s mut [T], n: usize) -> &'s mut [T] {
+            let (head, tail) = std::mem::take(v).split_at_mut(n);
+            *v = tail;
+            head
+        }
+        let base = self.base;
+        self.base = base + e;
+        Region {
+            nodes: split(&mut self.nodes, e.nodes),
+            groups: split(&mut self.groups, e.groups),
+            spheres: split(&mut self.spheres, e.spheres),
+            base,
+        }
+    }
+
+    fn is_empty(&self) -> bool {
+        self.nodes.is_empty() && self.groups.is_empty() && self.spheres.is_empty()
+    }
+}
+
+/// What the layout reads besides the plan.
+struct Layout<'a> {
     order: &'a [u32],
     geometry: &'a Geometry,
+    /// The extents of the subtrees laid out in parallel, by [`key`], as
+    /// the counting pass found them (so that no subtree is counted twice).
+    parts: Mutex<HashMap<usize, Extent>>,
+}
+
+impl Layout<'_> {
+    /// The primitives of leaf slot `plan`, and whether they are spheres (a
+    /// leaf never mixes kinds).
+    fn leaf_prims(&self, plan: &Plan) -> (&[u32], bool) {
+        let start = plan.start as usize;
+        let prims = &self.order[start..start + plan.node.count() as usize];
+        (prims, prims[0] >= self.geometry.triangles.len() as u32)
+    }
+
+    /// What the wide node of `slots`, and everything below it, lays out;
+    /// records the extents of the subtrees to be laid out in parallel.
+    fn node_extent(&self, slots: &[&Plan]) -> Extent {
+        let slot = |plan: &&Plan| {
+            if !plan.as_leaf() {
+                let (sub, n) = wide_slots(plan);
+                return self.node_extent(&sub[..n]);
+            }
+            match self.leaf_prims(plan) {
+                (prims, true) => Extent {
+                    spheres: prims.len(),
+                    ..Extent::default()
+                },
+                (prims, false) => Extent {
+                    groups: prims.len().div_ceil(TRI_WIDTH),
+                    ..Extent::default()
+                },
+            }
+        };
+        let node = Extent {
+            nodes: 1,
+            ..Extent::default()
+        };
+        if !parallel(slots) {
+            return slots.iter().map(slot).fold(node, Extent::add);
+        }
+        use rayon::prelude::*;
+        let extents: Vec<Extent> = slots.par_iter().map(slot).collect();
+        let mut parts = self.parts.lock().expect("a counting thread panicked");
+        for (plan, &e) in slots.iter().zip(&extents) {
+            if big(plan) {
+                parts.insert(key(plan), e);
+            }
+        }
+        extents.into_iter().fold(node, Extent::add)
+    }
+
+    /// The extent [`node_extent`](Self::node_extent) recorded for `plan`, a
+    /// subtree laid out in parallel.
+    fn counted(&self, plan: &Plan) -> Extent {
+        let parts = self.parts.lock().expect("a counting thread panicked");
+        *parts
+            .get(&key(plan))
+            .expect("parallel subtrees are counted")
+    }
+
+    /// Writes the wide node of `slots` and its subtree at the front of
+    /// `region` (depth first: the node, then each slot's subtree in slot
+    /// order), taking what it fills off the region; returns the subtree's
+    /// depth in wide levels, counting the node itself.
+    fn emit_node(&self, slots: &[&Plan], region: &mut Region) -> usize {
+        let this = region.take_front(Extent {
+            nodes: 1,
+            ..Extent::default()
+        });
+        let mut lo = [[f32::INFINITY; WIDTH]; 3];
+        let mut hi = [[f32::NEG_INFINITY; WIDTH]; 3];
+        let mut child = [ChildRef::EMPTY; WIDTH];
+        let mut depth = 1;
+        // Large interior children get their regions cut off here and are
+        // laid out together once every slot's place is known.
+        let parallel = parallel(slots);
+        let mut apart = Vec::new();
+        for (slot, plan) in slots.iter().enumerate() {
+            let b = plan.node.bounds();
+            for axis in 0..3 {
+                lo[axis][slot] = b.min[axis];
+                hi[axis][slot] = b.max[axis];
+            }
+            child[slot] = if plan.as_leaf() {
+                self.emit_leaf(plan, region)
+            } else {
+                let c = ChildRef::node(region.base.nodes as u32);
+                if parallel && big(plan) {
+                    let own = region.take_front(self.counted(plan));
+                    apart.push((*plan, own));
+                } else {
+                    let (sub, n) = wide_slots(plan);
+                    depth = depth.max(1 + self.emit_node(&sub[..n], region));
+                }
+                c
+            };
+        }
+        if !apart.is_empty() {
+            use rayon::prelude::*;
+            let deepest = apart
+                .into_par_iter()
+                .map(|(plan, mut own)| {
+                    let (sub, n) = wide_slots(plan);
+                    let d = self.emit_node(&sub[..n], &mut own);
+                    assert!(own.is_empty(), "a subtree's extent and layout disagree");
+                    d
+                })
+                .max()
+                .unwrap_or(0);
+            depth = depth.max(1 + deepest);
+        }
+        this.nodes[0] = WideNode {
+            bounds: [0, 1, 2].map(|a| [Lanes::from(lo[a]), Lanes::from(hi[a])]),
+            child,
+        };
+        depth
+    }
+
+    /// Writes a leaf slot's spheres, or which primitives its triangle
+    /// groups take, at the front of `region`, taking them off it; returns
+    /// the leaf's reference.
+    fn emit_leaf(&self, plan: &Plan, region: &mut Region) -> ChildRef {
+        match self.leaf_prims(plan) {
+            (prims, true) => {
+                let first = region.base.spheres as u32;
+                let out = region.take_front(Extent {
+                    spheres: prims.len(),
+                    ..Extent::default()
+                });
+                let tri_count = self.geometry.triangles.len() as u32;
+                let s = &self.geometry.spheres;
+                for (o, &id) in out.spheres.iter_mut().zip(prims) {
+                    let i = (id - tri_count) as usize;
+                    *o = PackedSphere {
+                        center: s.center[i],
+                        radius: s.radius[i],
+                        id,
+                    };
+                }
+                ChildRef::leaf(true, first, prims.len() as u32)
+            }
+            (prims, false) => {
+                let first = region.base.groups as u32;
+                let count = prims.len().div_ceil(TRI_WIDTH);
+                let out = region.take_front(Extent {
+                    groups: count,
+                    ..Extent::default()
+                });
+                let start = plan.start;
+                for (k, o) in out.groups.iter_mut().enumerate() {
+                    let first = start + (k * TRI_WIDTH) as u32;
+                    *o = GroupPrims {
+                        start: first,
+                        end: (first + TRI_WIDTH as u32).min(start + prims.len() as u32),
+                    };
+                }
+                ChildRef::leaf(false, first, count as u32)
+            }
+        }
+    }
 }
 
 /// The slots of the wide node made of interior subtree `plan`: the first
@@ -212,118 +489,6 @@ fn wide_slots<'p, 'a>(plan: &'p Plan<'a>) -> ([&'p Plan<'a>; WIDTH], usize) {
         n += 1;
     }
     (slots, n)
-}
-
-impl Ctx<'_> {
-    /// Appends a wide node with children `slots`; returns the depth of the
-    /// subtree below it (in wide levels, counting itself).
-    fn emit_node(&mut self, slots: &[&Plan]) -> usize {
-        let index = self.flat.nodes.len();
-        self.flat.nodes.push(WideNode {
-            bounds: [[Lanes::splat(f32::INFINITY), Lanes::splat(f32::NEG_INFINITY)]; 3],
-            child: [ChildRef::EMPTY; WIDTH],
-        });
-        let mut lo = [[f32::INFINITY; WIDTH]; 3];
-        let mut hi = [[f32::NEG_INFINITY; WIDTH]; 3];
-        let mut child = [ChildRef::EMPTY; WIDTH];
-        let mut depth = 1;
-        // Large interior children are flattened on other threads into
-        // arrays of their own, appended (with their references shifted)
-        // when their slot comes.
-        let mut parallel: [Option<Flat>; WIDTH] = Default::default();
-        let is_big = |p: &Plan| !p.as_leaf() && p.node.count() > PARALLEL_FLATTEN;
-        if slots.iter().filter(|n| is_big(n)).count() > 1 {
-            use rayon::prelude::*;
-            let big: Vec<(usize, &Plan)> = slots
-                .iter()
-                .enumerate()
-                .filter(|(_, n)| is_big(n))
-                .map(|(i, n)| (i, *n))
-                .collect();
-            let done: Vec<(usize, Flat)> = big
-                .into_par_iter()
-                .map(|(i, p)| (i, flatten_plan(p, self.order, self.geometry)))
-                .collect();
-            for (i, f) in done {
-                parallel[i] = Some(f);
-            }
-        }
-        for (slot, plan) in slots.iter().enumerate() {
-            let b = plan.node.bounds();
-            for axis in 0..3 {
-                lo[axis][slot] = b.min[axis];
-                hi[axis][slot] = b.max[axis];
-            }
-            child[slot] = if plan.as_leaf() {
-                let start = plan.start as usize;
-                self.emit_leaf(&self.order[start..start + plan.node.count() as usize])
-            } else if let Some(sub) = parallel[slot].take() {
-                depth = depth.max(1 + sub.depth);
-                self.append(sub)
-            } else {
-                let c = ChildRef::node(self.flat.nodes.len() as u32);
-                let (slots, n) = wide_slots(plan);
-                depth = depth.max(1 + self.emit_node(&slots[..n]));
-                c
-            };
-        }
-        let n = &mut self.flat.nodes[index];
-        n.bounds = [0, 1, 2].map(|a| [Lanes::from(lo[a]), Lanes::from(hi[a])]);
-        n.child = child;
-        depth
-    }
-
-    /// Appends a separately flattened subtree, shifting its node and leaf
-    /// references; returns the reference to its root.
-    fn append(&mut self, sub: Flat) -> ChildRef {
-        let node_base = self.flat.nodes.len() as u32;
-        let group_base = self.flat.tri_groups.len() as u32;
-        let sphere_base = self.flat.spheres.len() as u32;
-        self.flat.nodes.extend(sub.nodes.into_iter().map(|mut n| {
-            let [lo_x, hi_x] = n.bounds[0].map(Lanes::to_array);
-            for (slot, c) in n.child.iter_mut().enumerate() {
-                if lo_x[slot] > hi_x[slot] {
-                    continue; // empty slot
-                }
-                *c = if !c.is_leaf() {
-                    ChildRef::node(c.index() as u32 + node_base)
-                } else if c.is_sphere() {
-                    ChildRef::leaf(true, c.index() as u32 + sphere_base, c.count() as u32)
-                } else {
-                    ChildRef::leaf(false, c.index() as u32 + group_base, c.count() as u32)
-                };
-            }
-            n
-        }));
-        self.flat.tri_groups.extend(sub.tri_groups);
-        self.flat.spheres.extend(sub.spheres);
-        ChildRef::node(node_base)
-    }
-
-    /// Copies a leaf's primitives (all of one kind) into the leaf arrays.
-    fn emit_leaf(&mut self, prims: &[u32]) -> ChildRef {
-        let tri_count = self.geometry.triangles.len() as u32;
-        if prims[0] >= tri_count {
-            let first = self.flat.spheres.len() as u32;
-            for &id in prims {
-                let s = (id - tri_count) as usize;
-                self.flat.spheres.push(PackedSphere {
-                    center: self.geometry.spheres.center[s],
-                    radius: self.geometry.spheres.radius[s],
-                    id,
-                });
-            }
-            ChildRef::leaf(true, first, prims.len() as u32)
-        } else {
-            let first = self.flat.tri_groups.len() as u32;
-            let tris = &self.geometry.triangles;
-            self.flat
-                .tri_groups
-                .extend(prims.chunks(TRI_WIDTH).map(|ids| TriGroup::new(ids, tris)));
-            let count = self.flat.tri_groups.len() as u32 - first;
-            ChildRef::leaf(false, first, count)
-        }
-    }
 }
 
 /// Packs triangles `prims` into groups of [`TRI_WIDTH`].
