@@ -207,7 +207,7 @@ fn parallel(slots: &[&Plan]) -> bool {
 }
 
 /// Key of a subtree of the plan, which stays in place while it is laid out.
-fn key(plan: &Plan) -> usize {
+fn plan_key(plan: &Plan) -> usize {
     plan as *const Plan as usize
 }
 
@@ -283,55 +283,65 @@ impl<'o> Region<'o> {
 struct Layout<'a> {
     order: &'a [u32],
     geometry: &'a Geometry,
-    /// The extents of the subtrees laid out in parallel, by [`key`], as
-    /// the counting pass found them (so that no subtree is counted twice).
+    /// The extents of the subtrees laid out in parallel, by [`plan_key`],
+    /// as the counting pass found them (so that no subtree is counted twice).
     parts: Mutex<HashMap<usize, Extent>>,
 }
 
+/// The extent of one wide node alone.
+const ONE_NODE: Extent = Extent {
+    nodes: 1,
+    groups: 0,
+    spheres: 0,
+};
+
 impl Layout<'_> {
-    /// The primitives of leaf slot `plan`, and whether they are spheres (a
-    /// leaf never mixes kinds).
-    fn leaf_prims(&self, plan: &Plan) -> (&[u32], bool) {
+    /// The primitives of leaf slot `plan`, whether they are spheres (a
+    /// leaf never mixes kinds), and what the leaf lays out.
+    fn leaf(&self, plan: &Plan) -> (&[u32], bool, Extent) {
         let start = plan.start as usize;
         let prims = &self.order[start..start + plan.node.count() as usize];
-        (prims, prims[0] >= self.geometry.triangles.len() as u32)
+        let spheres = prims[0] >= self.geometry.triangles.len() as u32;
+        let extent = if spheres {
+            Extent {
+                spheres: prims.len(),
+                ..Extent::default()
+            }
+        } else {
+            Extent {
+                groups: prims.len().div_ceil(TRI_WIDTH),
+                ..Extent::default()
+            }
+        };
+        (prims, spheres, extent)
+    }
+
+    /// What interior slot `plan` lays out: its wide node and everything
+    /// below.
+    fn subtree_extent(&self, plan: &Plan) -> Extent {
+        let (slots, n) = wide_slots(plan);
+        self.node_extent(&slots[..n])
     }
 
     /// What the wide node of `slots`, and everything below it, lays out;
     /// records the extents of the subtrees to be laid out in parallel.
     fn node_extent(&self, slots: &[&Plan]) -> Extent {
-        let slot = |plan: &&Plan| {
-            if !plan.as_leaf() {
-                let (sub, n) = wide_slots(plan);
-                return self.node_extent(&sub[..n]);
-            }
-            match self.leaf_prims(plan) {
-                (prims, true) => Extent {
-                    spheres: prims.len(),
-                    ..Extent::default()
-                },
-                (prims, false) => Extent {
-                    groups: prims.len().div_ceil(TRI_WIDTH),
-                    ..Extent::default()
-                },
-            }
-        };
-        let node = Extent {
-            nodes: 1,
-            ..Extent::default()
+        let slot = |plan: &&Plan| match plan.as_leaf() {
+            true => self.leaf(plan).2,
+            false => self.subtree_extent(plan),
         };
         if !parallel(slots) {
-            return slots.iter().map(slot).fold(node, Extent::add);
+            return slots.iter().map(slot).fold(ONE_NODE, Extent::add);
         }
         use rayon::prelude::*;
         let extents: Vec<Extent> = slots.par_iter().map(slot).collect();
         let mut parts = self.parts.lock().expect("a counting thread panicked");
         for (plan, &e) in slots.iter().zip(&extents) {
             if big(plan) {
-                parts.insert(key(plan), e);
+                parts.insert(plan_key(plan), e);
             }
         }
-        extents.into_iter().fold(node, Extent::add)
+        extents.into_iter().fold(ONE_NODE, Extent::add)
     }
 
     /// The extent [`node_extent`](Self::node_extent) recorded for `plan`, a
@@ -339,8 +349,15 @@ impl Layout<'_> {
     fn counted(&self, plan: &Plan) -> Extent {
         let parts = self.parts.lock().expect("a counting thread panicked");
         *parts
-            .get(&key(plan))
+            .get(&plan_key(plan))
             .expect("parallel subtrees are counted")
+    }
+
+    /// Writes interior slot `plan` (its wide node and subtree) at the front
+    /// of `region`, as [`emit_node`](Self::emit_node) does; returns its depth.
+    fn emit_subtree(&self, plan: &Plan, region: &mut Region) -> usize {
+        let (slots, n) = wide_slots(plan);
+        self.emit_node(&slots[..n], region)
     }
 
     /// Writes the wide node of `slots` and its subtree at the front of
@@ -348,17 +365,14 @@ impl Layout<'_> {
     /// order), taking what it fills off the region; returns the subtree's
     /// depth in wide levels, counting the node itself.
     fn emit_node(&self, slots: &[&Plan], region: &mut Region) -> usize {
-        let this = region.take_front(Extent {
-            nodes: 1,
-            ..Extent::default()
-        });
+        let this = region.take_front(ONE_NODE);
         let mut lo = [[f32::INFINITY; WIDTH]; 3];
         let mut hi = [[f32::NEG_INFINITY; WIDTH]; 3];
         let mut child = [ChildRef::EMPTY; WIDTH];
         let mut depth = 1;
         // Large interior children get their regions cut off here and are
         // laid out together once every slot's place is known.
-        let parallel = parallel(slots);
+        let in_parallel = parallel(slots);
         let mut apart = Vec::new();
         for (slot, plan) in slots.iter().enumerate() {
             let b = plan.node.bounds();
@@ -370,12 +384,10 @@ impl Layout<'_> {
                 self.emit_leaf(plan, region)
             } else {
                 let c = ChildRef::node(region.base.nodes as u32);
-                if parallel && big(plan) {
-                    let own = region.take_front(self.counted(plan));
-                    apart.push((*plan, own));
+                if in_parallel && big(plan) {
+                    apart.push((*plan, region.take_front(self.counted(plan))));
                 } else {
-                    let (sub, n) = wide_slots(plan);
-                    depth = depth.max(1 + self.emit_node(&sub[..n], region));
+                    depth = depth.max(1 + self.emit_subtree(plan, region));
                 }
                 c
             };
@@ -385,8 +397,7 @@ impl Layout<'_> {
             let deepest = apart
                 .into_par_iter()
                 .map(|(plan, mut own)| {
-                    let (sub, n) = wide_slots(plan);
-                    let d = self.emit_node(&sub[..n], &mut own);
+                    let d = self.emit_subtree(plan, &mut own);
                     assert!(own.is_empty(), "a subtree's extent and layout disagree");
                     d
                 })
@@ -405,42 +416,31 @@ impl Layout<'_> {
     /// groups take, at the front of `region`, taking them off it; returns
     /// the leaf's reference.
     fn emit_leaf(&self, plan: &Plan, region: &mut Region) -> ChildRef {
-        match self.leaf_prims(plan) {
-            (prims, true) => {
-                let first = region.base.spheres as u32;
-                let out = region.take_front(Extent {
-                    spheres: prims.len(),
-                    ..Extent::default()
-                });
-                let tri_count = self.geometry.triangles.len() as u32;
-                let s = &self.geometry.spheres;
-                for (o, &id) in out.spheres.iter_mut().zip(prims) {
-                    let i = (id - tri_count) as usize;
-                    *o = PackedSphere {
-                        center: s.center[i],
-                        radius: s.radius[i],
-                        id,
-                    };
-                }
-                ChildRef::leaf(true, first, prims.len() as u32)
+        let (prims, spheres, extent) = self.leaf(plan);
+        let base = region.base;
+        let out = region.take_front(extent);
+        if spheres {
+            let tri_count = self.geometry.triangles.len() as u32;
+            let s = &self.geometry.spheres;
+            for (o, &id) in out.spheres.iter_mut().zip(prims) {
+                let i = (id - tri_count) as usize;
+                *o = PackedSphere {
+                    center: s.center[i],
+                    radius: s.radius[i],
+                    id,
+                };
             }
-            (prims, false) => {
-                let first = region.base.groups as u32;
-                let count = prims.len().div_ceil(TRI_WIDTH);
-                let out = region.take_front(Extent {
-                    groups: count,
-                    ..Extent::default()
-                });
-                let start = plan.start;
-                for (k, o) in out.groups.iter_mut().enumerate() {
-                    let first = start + (k * TRI_WIDTH) as u32;
-                    *o = GroupPrims {
-                        start: first,
-                        end: (first + TRI_WIDTH as u32).min(start + prims.len() as u32),
-                    };
-                }
-                ChildRef::leaf(false, first, count as u32)
+            ChildRef::leaf(true, base.spheres as u32, prims.len() as u32)
+        } else {
+            let (start, end) = (plan.start, plan.start + prims.len() as u32);
+            for (k, o) in out.groups.iter_mut().enumerate() {
+                let group_start = start + (k * TRI_WIDTH) as u32;
+                *o = GroupPrims {
+                    start: group_start,
+                    end: end.min(group_start + TRI_WIDTH as u32),
+                };
             }
+            ChildRef::leaf(false, base.groups as u32, extent.groups as u32)
         }
     }
 }
@@ -561,16 +561,81 @@ mod tests {
         }
     }
 
-    /// The flattened tree is the plan: every primitive in exactly one leaf
-    /// (a sphere's copy holding its own centre and radius), its SAH cost
-    /// (summed over the wide nodes and leaves actually laid out) the
-    /// plan's least cost, and its depth the longest path laid out.
+    /// What a walk of a flattened tree finds: how many times each
+    /// primitive is laid out (a sphere's copy checked against its own
+    /// centre and radius, inside its slot), the SAH cost summed over the
+    /// wide nodes and leaves, and the longest path in wide levels.
+    fn walk(flat: &Flat, geometry: &Geometry, root_area: f32) -> (Vec<u32>, f32, usize) {
+        let triangles = geometry.triangles.len();
+        let mut seen = vec![0; triangles + geometry.spheres.len()];
+        let mut cost = C_NODE;
+        let mut depth = 0;
+        let mut stack = vec![(0usize, 1)];
+        while let Some((index, level)) = stack.pop() {
+            depth = depth.max(level);
+            let node = &flat.nodes[index];
+            for slot in 0..WIDTH {
+                let b = slot_bounds(node, slot);
+                if b.min.x > b.max.x {
+                    continue; // empty slot
+                }
+                let area = b.surface_area() / root_area;
+                let c = node.child[slot];
+                if !c.is_leaf() {
+                    cost += area * C_NODE;
+                    stack.push((c.index(), level + 1));
+                    continue;
+                }
+                cost += area * C_PRIM * c.count() as f32;
+                let items = c.index()..c.index() + c.count();
+                if c.is_sphere() {
+                    for s in &flat.spheres[items] {
+                        let i = s.id as usize - triangles;
+                        assert_eq!(s.center, geometry.spheres.center[i]);
+                        assert_eq!(s.radius, geometry.spheres.radius[i]);
+                        let inside = b.min.cmple(s.center).all() && s.center.cmple(b.max).all();
+                        assert!(inside, "sphere {i} outside its slot");
+                        seen[s.id as usize] += 1;
+                    }
+                } else {
+                    let groups = &flat.tri_groups[items];
+                    for id in groups.iter().flat_map(|g| g.id).filter(|&id| id != NO_HIT) {
+                        seen[id as usize] += 1;
+                    }
+                }
+            }
+        }
+        (seen, cost, depth)
+    }
+
+    /// Builds `geometry` with the renderer's SAH parameters, and with
+    /// `top_slots` root slots for large flat pieces.
+    fn build_sah(geometry: &Geometry, top_slots: usize) -> (BuildNode, Vec<u32>) {
+        let n = geometry.triangles.len() + geometry.spheres.len();
+        let bounds: Vec<Aabb> = (0..n as u32)
+            .map(|i| geometry.primitive_bounds(i))
+            .collect();
+        let params = BuildParams {
+            sah: true,
+            bins: 16,
+            traversal_cost: 2.0,
+            lanes: TRI_WIDTH,
+            max_leaf: 8,
+            top_slots,
+        };
+        let (root, order) = build::build(&bounds, geometry.triangles.len() as u32, params);
+        (root.expect("primitives were given"), order)
+    }
+
+    /// The flattened tree is the plan: every primitive in exactly one leaf,
+    /// its SAH cost (summed over the wide nodes and leaves actually laid
+    /// out) the plan's least cost, and its depth the longest path laid out.
     #[test]
     fn layout_follows_the_plan() {
         // (triangles, spheres, triangles flat in x). 20,000 primitives
-        // also take the parallel plan; 80,000 the parallel flatten too
-        // (several root slots above PARALLEL_FLATTEN), whose appended
-        // subtrees have their references shifted.
+        // also take the parallel plan; 80,000 the parallel layout too
+        // (several root slots above PARALLEL_FLATTEN), whose subtrees are
+        // written into the slices their counted extents cut off.
         let cases = [
             (1, 0, false),
             (7, 0, false),
@@ -584,62 +649,11 @@ mod tests {
         ];
         for (seed, (triangles, spheres, flat_x)) in cases.into_iter().enumerate() {
             let geometry = random_geometry(seed as u32, triangles, spheres, flat_x);
-            let n = triangles + spheres;
-            let bounds: Vec<Aabb> = (0..n as u32)
-                .map(|i| geometry.primitive_bounds(i))
-                .collect();
-            let params = BuildParams {
-                sah: true,
-                bins: 16,
-                traversal_cost: 2.0,
-                lanes: TRI_WIDTH,
-                max_leaf: 8,
-                top_slots: 0,
-            };
-            let (root, order) = build::build(&bounds, triangles as u32, params);
-            let root = root.unwrap();
+            let (root, order) = build_sah(&geometry, 0);
             let flat = flatten(Some(&root), &order, &geometry);
             let case = format!("{triangles} triangles, {spheres} spheres, flat {flat_x}");
 
-            let root_area = root.bounds().surface_area();
-            let mut seen = vec![0; n];
-            let mut cost = C_NODE;
-            let mut depth = 0;
-            let mut stack = vec![(0usize, 1)];
-            while let Some((index, level)) = stack.pop() {
-                depth = depth.max(level);
-                let node = &flat.nodes[index];
-                for slot in 0..WIDTH {
-                    let b = slot_bounds(node, slot);
-                    if b.min.x > b.max.x {
-                        continue; // empty slot
-                    }
-                    let area = b.surface_area() / root_area;
-                    let c = node.child[slot];
-                    if !c.is_leaf() {
-                        cost += area * C_NODE;
-                        stack.push((c.index(), level + 1));
-                        continue;
-                    }
-                    cost += area * C_PRIM * c.count() as f32;
-                    let items = c.index()..c.index() + c.count();
-                    if c.is_sphere() {
-                        for s in &flat.spheres[items] {
-                            let i = s.id as usize - triangles;
-                            assert_eq!(s.center, geometry.spheres.center[i], "{case}");
-                            assert_eq!(s.radius, geometry.spheres.radius[i], "{case}");
-                            let inside = b.min.cmple(s.center).all() && s.center.cmple(b.max).all();
-                            assert!(inside, "{case}: sphere {i} outside its slot");
-                            seen[s.id as usize] += 1;
-                        }
-                    } else {
-                        let groups = &flat.tri_groups[items];
-                        for id in groups.iter().flat_map(|g| g.id).filter(|&id| id != NO_HIT) {
-                            seen[id as usize] += 1;
-                        }
-                    }
-                }
-            }
+            let (seen, cost, depth) = walk(&flat, &geometry, root.bounds().surface_area());
             assert!(seen.iter().all(|&s| s == 1), "{case}: {seen:?}");
             assert_eq!(flat.depth, depth, "{case}");
             let plan = Plan::new(&root, triangles as u32, &order);
@@ -652,6 +666,73 @@ mod tests {
                 (cost - want).abs() <= 1e-4 * want,
                 "{case}: laid out {cost}, planned {want}"
             );
+        }
+    }
+
+    /// Walls in root slots of their own (the root's joins are opened
+    /// greedily, not as the plan would) around enough small triangles for
+    /// the parallel layout: every primitive is laid out once, at the
+    /// counted depth, and each wall is a slot of the root.
+    #[test]
+    fn layout_gives_the_walls_root_slots() {
+        let mut geometry = random_geometry(11, 80_000, 0, false);
+        let t = &mut geometry.triangles;
+        // The six walls of a room around the cube of side 20 that the
+        // small triangles fill, two triangles each.
+        let (lo, hi) = (-10.0, 30.0);
+        for axis in 0..3 {
+            for side in [lo, hi] {
+                let corner = |u: f32, v: f32| {
+                    let mut p = [0.0; 3];
+                    p[axis] = side;
+                    p[(axis + 1) % 3] = u;
+                    p[(axis + 2) % 3] = v;
+                    Vec3::from(p)
+                };
+                let base = t.positions.len() as u32;
+                t.positions.extend([
+                    corner(lo, lo),
+                    corner(hi, lo),
+                    corner(hi, hi),
+                    corner(lo, hi),
+                ]);
+                t.indices.push([base, base + 1, base + 2]);
+                t.indices.push([base, base + 2, base + 3]);
+                t.material.extend([0, 0]);
+            }
+        }
+        let (root, order) = build_sah(&geometry, WIDTH);
+        assert!(
+            matches!(
+                root,
+                BuildNode::Inner {
+                    joins_parts: true,
+                    ..
+                }
+            ),
+            "the walls were not set apart"
+        );
+        let flat = flatten(Some(&root), &order, &geometry);
+        let (seen, _, depth) = walk(&flat, &geometry, root.bounds().surface_area());
+        assert!(seen.iter().all(|&s| s == 1), "{seen:?}");
+        assert_eq!(flat.depth, depth);
+        // Each wall's two triangles are one leaf slot of the root.
+        let root_node = &flat.nodes[0];
+        for wall in 0..6 {
+            let ids = [80_000 + 2 * wall, 80_000 + 2 * wall + 1];
+            let holds_wall = (0..WIDTH).any(|slot| {
+                let c = root_node.child[slot];
+                c.is_leaf() && !c.is_sphere() && c.count() == 1 && {
+                    let mut got: Vec<u32> = flat.tri_groups[c.index()]
+                        .id
+                        .into_iter()
+                        .filter(|&id| id != NO_HIT)
+                        .collect();
+                    got.sort();
+                    got == ids
+                }
+            });
+            assert!(holds_wall, "wall {wall} has no root slot of its own");
         }
     }
 }

@@ -279,12 +279,10 @@ impl Bvh {
             flat.depth * (WIDTH - 1) + WIDTH <= traverse::STACK_SIZE,
             "BVH too deep for the traversal stack"
         );
+        // The layout allocates each array at its final size.
         bvh.nodes = flat.nodes;
         bvh.tri_groups = flat.tri_groups;
         bvh.spheres = flat.spheres;
-        bvh.nodes.shrink_to_fit();
-        bvh.tri_groups.shrink_to_fit();
-        bvh.spheres.shrink_to_fit();
         bvh.root = flat.root;
         bvh.depth = flat.depth;
         if let Some(root) = root {
