@@ -1293,3 +1293,49 @@ fn the_closing_report_says_what_was_written_unless_quiet() {
     assert!(stderr(&o).contains(&wrote), "{}", stderr(&o));
     assert!(stderr(&o).contains("on 2 threads |"), "{}", stderr(&o));
 }
+
+/// A write that fails after the render (a full disk: a link to Linux's
+/// `/dev/full`, which takes no bytes) is an error naming the file, with
+/// status 1 — for a PNG too, whose last buffered bytes are written only
+/// when the file is flushed — and no "wrote" line.
+#[test]
+fn a_full_disk_is_an_error_for_every_output() {
+    if !Path::new("/dev/full").exists() || !cfg!(unix) {
+        println!("skipped: no /dev/full on this system");
+        return;
+    }
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    for name in ["full.png", "full.exr"] {
+        let link = scratch(name);
+        #[cfg(unix)]
+        std::os::unix::fs::symlink("/dev/full", &link).unwrap();
+        let o = render_to(scene, &link, &["-r", "8", "6"]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{name}: {err}");
+        let says = format!("{}: cannot write", link.display());
+        assert!(err.contains(&says), "{name}: {err}");
+        assert!(err.contains("No space left on device"), "{name}: {err}");
+        assert!(
+            !String::from_utf8_lossy(&o.stdout).contains("wrote"),
+            "{name}"
+        );
+        let _ = std::fs::remove_file(&link);
+    }
+    // The rate image of an adaptive render.
+    let image = scratch("full-rate.png");
+    let rate = scratch("full-rate_rate.png");
+    #[cfg(unix)]
+    std::os::unix::fs::symlink("/dev/full", &rate).unwrap();
+    let o = render_to(
+        scene,
+        &image,
+        &["-r", "8", "6", "-s", "8", "-a", "4", "0.05"],
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(&format!("{}: cannot write PNG", rate.display())),
+        "{err}"
+    );
+    let _ = std::fs::remove_file(&rate);
+}

@@ -9,7 +9,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Parser;
 use glam::Vec3;
 
@@ -113,11 +113,7 @@ pub fn write_diff(
             [c.x, c.y, c.z].map(|v| (255.0 * v).round() as u8)
         })
         .collect();
-    let buffer = image::RgbImage::from_raw(image.width, image.height, data)
-        .context("diff image buffer size")?;
-    buffer
-        .save_with_format(path, image::ImageFormat::Png)
-        .with_context(|| format!("{}: cannot write PNG", path.display()))?;
+    output::save_rgb8(image.width, image.height, &data, path)?;
     Ok(scale)
 }
 

@@ -96,20 +96,31 @@ pub fn write_image(image: &Image, path: &Path, curve: ToneCurve, with_rate: bool
     }
 }
 
-fn save_rgb8(width: u32, height: u32, data: Vec<u8>, path: &Path) -> Result<()> {
-    let buffer = image::RgbImage::from_raw(width, height, data).context("image buffer size")?;
-    buffer
-        .save_with_format(path, image::ImageFormat::Png)
-        .with_context(|| format!("{}: cannot write PNG", path.display()))
+/// Writes 8-bit RGB pixels (row by row, top first) as a PNG file.
+///
+/// The encoder writes through a buffer that is flushed here, so a failed
+/// write (a full disk) is an error. `image`'s own `save` drops its buffer
+/// unflushed, which loses the last write's error — and with it, silently,
+/// the whole of a small image.
+pub(crate) fn save_rgb8(width: u32, height: u32, data: &[u8], path: &Path) -> Result<()> {
+    use image::ImageEncoder;
+    use std::io::Write;
+    let context = || format!("{}: cannot write PNG", path.display());
+    let file = std::fs::File::create(path).with_context(context)?;
+    let mut out = std::io::BufWriter::new(file);
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(data, width, height, image::ExtendedColorType::Rgb8)
+        .with_context(context)?;
+    out.flush().with_context(context)
 }
 
 pub fn write_png(image: &Image, path: &Path, curve: ToneCurve) -> Result<()> {
-    let data = image
+    let data: Vec<u8> = image
         .pixels
         .iter()
         .flat_map(|p| [curve.encode(p.x), curve.encode(p.y), curve.encode(p.z)])
         .collect();
-    save_rgb8(image.width, image.height, data, path)
+    save_rgb8(image.width, image.height, &data, path)
 }
 
 pub fn write_exr(image: &Image, path: &Path, with_rate: bool) -> Result<()> {
@@ -243,7 +254,7 @@ pub fn rate_colour(rate: f32) -> Vec3 {
 /// each channel is written as trunc(255·c), linear.
 pub fn write_rate_png(image: &Image, max_samples: u32, path: &Path) -> Result<()> {
     let max = max_samples.max(1) as f32;
-    let data = image
+    let data: Vec<u8> = image
         .samples
         .iter()
         .flat_map(|&n| {
@@ -251,7 +262,7 @@ pub fn write_rate_png(image: &Image, max_samples: u32, path: &Path) -> Result<()
             [c.x, c.y, c.z].map(|v| (255.0 * v) as u8)
         })
         .collect();
-    save_rgb8(image.width, image.height, data, path)
+    save_rgb8(image.width, image.height, &data, path)
 }
 
 /// Reads an image written by [`write_image`] (or any RGB EXR/PNG) back as
