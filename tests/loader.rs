@@ -214,8 +214,68 @@ fn the_bound_material_is_the_one_the_lists_symbol_names() {
     // it) names that material; one that is not falls back to the default.
     let text = with_red(&[(r#"material="grey-sym""#, r#"material="red""#)]);
     assert_eq!(triangle_material(&load(&text)), "red");
+    // One that is neither falls back to the default, with a warning
+    // naming the symbol.
     let text = edit(r#"material="grey-sym""#, r#"material="fx""#);
-    assert_eq!(triangle_material(&load(&text)), "default");
+    let scene = load(&text);
+    assert_eq!(triangle_material(&scene), "default");
+    assert!(
+        warned(
+            &scene,
+            r#"material symbol "fx" is bound by no <instance_material>"#
+        ),
+        "{:?}",
+        scene.warnings
+    );
+    // The fixture's own bindings say nothing.
+    assert!(load(BASE).warnings.is_empty());
+}
+
+#[test]
+fn a_matrix_with_a_projective_bottom_row_is_read_as_affine_with_a_warning() {
+    let affine = "<matrix>1 0 0 0 0 1 0 0 0 0 1 5 0 0 0 1</matrix>";
+    let projective = "<matrix>1 0 0 0 0 1 0 0 0 0 1 5 0 0 1 2</matrix>";
+    let scene = load(&edit(affine, projective));
+    assert!(
+        warned(&scene, "the bottom row is 0 0 1 2, not 0 0 0 1"),
+        "{:?}",
+        scene.warnings
+    );
+    assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    // The camera is where the affine matrix puts it.
+    assert_eq!(scene.camera, load(BASE).camera);
+}
+
+#[test]
+fn a_scene_beyond_the_far_clipping_plane_is_warned_of() {
+    // The camera stands 1.5 diagonals from the scene's centre: a ball of
+    // radius 500 puts everything beyond a zfar of 100, one of radius 20
+    // only the back of the scene.
+    let radius = |r: &str| edit("<radius>0.5</radius>", &format!("<radius>{r}</radius>"));
+    let scene = load(&radius("500"));
+    assert!(
+        warned(
+            &scene,
+            "the whole scene lies beyond the far clipping plane (zfar 100;"
+        ),
+        "{:?}",
+        scene.warnings
+    );
+    let scene = load(&radius("20"));
+    assert!(
+        warned(
+            &scene,
+            "part of the scene lies beyond the far clipping plane (zfar 100;"
+        ),
+        "{:?}",
+        scene.warnings
+    );
+    let scene = load(&radius("5"));
+    assert!(
+        !warned(&scene, "far clipping plane"),
+        "{:?}",
+        scene.warnings
+    );
 }
 
 /// The material of the fixture's effect with `record` as its CGL (or

@@ -40,8 +40,25 @@ pub fn node_local_transform(
         let local = match t.tag_name().name() {
             "matrix" => {
                 let v = src.floats_n(t, 16)?;
+                // The bottom row of an affine transform; points and
+                // directions are moved as if it were (the renderer has no
+                // projective transforms), which the user is told.
+                if v[12..] != [0.0, 0.0, 0.0, 1.0] {
+                    warnings.push(src.warning(
+                        t,
+                        format!(
+                            "<matrix>: the bottom row is {} {} {} {}, not 0 0 0 1; projective transforms are not supported and it is read as 0 0 0 1",
+                            v[12], v[13], v[14], v[15]
+                        ),
+                    ));
+                }
                 // Row-major in the file; glam is column-major.
-                Mat4::from_cols_slice(&v).transpose()
+                let mut m = Mat4::from_cols_slice(&v).transpose();
+                m.w_axis.w = 1.0;
+                m.x_axis.w = 0.0;
+                m.y_axis.w = 0.0;
+                m.z_axis.w = 0.0;
+                m
             }
             "translate" => {
                 let v = src.floats_n(t, 3)?;
