@@ -294,6 +294,22 @@ fn outputs_that_cannot_be_written_are_refused_before_rendering() {
         );
         assert!(err.contains("--help"), "{args:?}: {err}");
     }
+    // Without -f, the default name is the one named (here, in a folder
+    // that holds a folder of that name).
+    let cwd = scratch_path("default-name");
+    std::fs::create_dir_all(cwd.join("cornell.png")).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_wavepath"))
+        .args(["-r", "8", "6", scene])
+        .current_dir(&cwd)
+        .output()
+        .expect("run wavepath");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).starts_with("error: the output cornell.png (the default for -f): is a folder"),
+        "{}",
+        stderr(&o)
+    );
+
     // At one sample per pixel sampling is not adaptive and no rate image
     // is written, so the same name is fine.
     let o = wavepath(&[

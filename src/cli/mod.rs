@@ -368,7 +368,11 @@ pub fn run() -> Result<i32> {
     let args = Args::parse_from(argv);
     let (settings, output_path, format) = validate(&args, usage_error::<Args>);
     check_memory(&settings, format);
-    let image = format!("-f {}", output_path.display());
+    // Named as the user gave it, or as the default it took.
+    let image = match args.output {
+        Some(_) => format!("-f {}", output_path.display()),
+        None => format!("the output {} (the default for -f)", output_path.display()),
+    };
     if let Some(why) = unwritable(&output_path) {
         usage_error::<Args>(format!("{image}: {why}"));
     }

@@ -118,6 +118,20 @@ pub fn parse(text: &str) -> Result<CameraFile, String> {
             ));
         }
     }
+    // Values the render does not use are still checked: a file with a
+    // negative size or aspect is corrupt, not merely unusual.
+    let mut positive = vec![(2, v[2]), (25, v[25]), (26, v[26])];
+    if words.len() == 30 {
+        positive.push((28, v[28]));
+    }
+    for (i, x) in positive {
+        if x <= 0.0 {
+            return Err(format!("{} {x} must be positive", FIELDS[i]));
+        }
+    }
+    if words.len() == 30 && v[29] < 0.0 {
+        return Err(format!("{} {} must not be negative", FIELDS[29], v[29]));
+    }
     let (near, far) = (v[3], v[4]);
     if !(near >= 0.0 && far > near) {
         return Err(format!("clip planes {near} and {far}: need 0 ≤ near < far"));
@@ -299,6 +313,17 @@ mod tests {
                 "a mirror image",
             ),
             (with(1, "180"), "vfov 180"),
+            (with(2, "-5"), "aspect ratio -5 must be positive"),
+            (with(25, "0"), "screen width 0 must be positive"),
+            (with(26, "-600"), "screen height -600 must be positive"),
+            (
+                format!("{good} 0 0.25"),
+                "focal distance 0 must be positive",
+            ),
+            (
+                format!("{good} 4.7 -1"),
+                "lens radius -1 must not be negative",
+            ),
         ];
         for (text, says) in cases {
             let e = parse(&text).unwrap_err();
