@@ -796,6 +796,21 @@ fn degenerate_area_light() {
     // With an ordinary transform, the same area light loads.
     let ok = edits(&[("<point>", "<area>"), ("</point>", "</area>")]);
     load_str(&ok, Path::new(NAME)).unwrap_or_else(|e| panic!("{e}"));
+    // Scaled until its area overflows, it is too large, not degenerate.
+    let huge = edits(&[
+        ("<point>", "<area>"),
+        ("</point>", "</area>"),
+        (
+            "<translate>0 3 0</translate>",
+            "<translate>0 3 0</translate><scale>3e19 3e19 1</scale>",
+        ),
+    ]);
+    expect_at(
+        &huge,
+        "instance_light",
+        r##"<instance_light url="#lamp"/>"##,
+        "area light is too large under its node's transform: sides of 3e19 and 3e19",
+    );
 }
 
 #[test]

@@ -432,6 +432,27 @@ fn light(kind: &str, transform: &str) -> Scene {
     ]))
 }
 
+/// An area light too far out for single precision (loadable, but its
+/// points cannot be placed) is warned of; an ordinary one is not.
+#[test]
+fn an_area_light_beyond_the_coordinate_limit_is_warned_of() {
+    let far = light("area", "<scale>1e16 1e16 1</scale>");
+    assert!(
+        warned(
+            &far,
+            "an area light reaches 1e16 from the origin; past 1e12"
+        ),
+        "{:?}",
+        far.warnings
+    );
+    let near = light("area", "<scale>1e3 1e3 1</scale>");
+    assert!(
+        !warned(&near, "an area light reaches"),
+        "{:?}",
+        near.warnings
+    );
+}
+
 #[test]
 fn lights_are_placed_by_their_nodes_world_transform() {
     let colour = Vec3::new(0.25, 0.5, 1.0);

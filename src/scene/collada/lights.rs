@@ -87,6 +87,17 @@ pub fn parse_light(
             let dim_x = apply(t, Vec4::new(-1.0, 0.0, 0.0, 1.0)) - p;
             let dim_y = apply(t, Vec4::new(0.0, 1.0, 0.0, 1.0)) - p;
             finite(&[p, normal, dim_x, dim_y])?;
+            let area = dim_x.cross(dim_y);
+            if !area.is_finite() {
+                return Err(src.error(
+                    instance,
+                    format!(
+                        "area light is too large under its node's transform: sides of {:e} and {:e} make an area beyond single precision",
+                        dim_x.as_dvec3().length() as f32,
+                        dim_y.as_dvec3().length() as f32
+                    ),
+                ));
+            }
             // At any scale: the squared length of a 1e-12 light's
             // dim_x × dim_y underflows f32, of a 1e20 one's normal overflows.
             let (Some(normal), Some(_)) = (

@@ -621,6 +621,26 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
                 ));
             }
         }
+        // Area lights are not geometry, but their arithmetic has the same
+        // limit: past it, shadow rays toward them lose their precision.
+        let light_reach = self
+            .lights
+            .iter()
+            .filter_map(|light| match light {
+                Light::Area {
+                    center,
+                    dim_x,
+                    dim_y,
+                    ..
+                } => Some((center.abs() + dim_x.abs() + dim_y.abs()).max_element()),
+                _ => None,
+            })
+            .fold(0.0f32, f32::max);
+        if light_reach > MAX_COORDINATE {
+            self.warnings.push(format!(
+                "{path}: an area light reaches {light_reach:e} from the origin; past {MAX_COORDINATE:e} single-precision arithmetic cannot place points on it, and it may light nothing"
+            ));
+        }
         let (view_dir, optics) = match &self.camera {
             Some(c) => (camera_view_dir(&c.world), c.optics),
             None => {
