@@ -385,6 +385,22 @@ fn polygons_and_triangles_lists_checked_against_their_counts() {
 }
 
 #[test]
+fn accessor_naming_nothing_or_another_array() {
+    case(
+        r##"<accessor source="#tri-pos-array" count="3" stride="3">"##,
+        r##"<accessor source="#zzz" count="3" stride="3">"##,
+        "accessor",
+        r##"source="#zzz" refers to no element"##,
+    );
+    case(
+        r##"<accessor source="#tri-pos-array" count="3" stride="3">"##,
+        r##"<accessor source="#tri-uv-array" count="3" stride="3">"##,
+        "accessor",
+        "names another <source>'s array",
+    );
+}
+
+#[test]
 fn accessor_count_not_a_number() {
     case(
         r##"<accessor source="#tri-uv-array" count="3" stride="2"/>"##,
@@ -773,6 +789,25 @@ fn sphere_scaled_to_nothing() {
         "instance_geometry",
         r##"<instance_geometry url="#ball">"##,
         "not a positive finite number",
+    );
+}
+
+#[test]
+fn sphere_reaching_beyond_single_precision() {
+    // Finite centre and radius whose sum overflows: refused, as a mesh
+    // vertex that overflows is.
+    let text = edits(&[
+        ("<radius>0.5</radius>", "<radius>2e38</radius>"),
+        (
+            "<translate>2 0 0</translate>",
+            "<translate>-2e38 0 0</translate>",
+        ),
+    ]);
+    expect_at(
+        &text,
+        "instance_geometry",
+        r##"<instance_geometry url="#ball">"##,
+        "reaches beyond single precision",
     );
 }
 

@@ -39,7 +39,12 @@ impl Accessor {
     }
 }
 
-fn read_source(src: &Source, node: Node, min_params: usize) -> Result<Accessor, LoadError> {
+fn read_source(
+    src: &Source,
+    ids: &Ids,
+    node: Node,
+    min_params: usize,
+) -> Result<Accessor, LoadError> {
     let array = src.require(node, "float_array")?;
     let data = src.floats(array)?;
     if let Some(count) = src.usize_attr(array, "count")?
@@ -72,6 +77,18 @@ fn read_source(src: &Source, node: Node, min_params: usize) -> Result<Accessor, 
             stride: min_params,
         });
     };
+    // The numbers read are always the source's own array; an accessor
+    // that names another (or nothing) would be read wrongly, so it is an
+    // error rather than ignored.
+    if accessor.attribute("source").is_some() {
+        let named = ids.resolve(src, accessor, "source", "float_array")?;
+        if named != array {
+            return Err(src.error(
+                accessor,
+                "source= names another <source>'s array; only an accessor's own <source>'s array is read",
+            ));
+        }
+    }
     let stride = src.usize_attr(accessor, "stride")?.unwrap_or(1);
     let offset = src.usize_attr(accessor, "offset")?.unwrap_or(0);
     let count = src
@@ -124,7 +141,7 @@ pub fn parse_mesh(
         .find(|i| i.attribute("semantic") == Some("POSITION"))
         .ok_or_else(|| src.error(vertices, "no <input semantic=\"POSITION\">"))?;
     let position_source = ids.resolve(src, position_input, "source", "source")?;
-    let positions_acc = read_source(src, position_source, 3)?;
+    let positions_acc = read_source(src, ids, position_source, 3)?;
     let positions: Vec<Vec3> = (0..positions_acc.count)
         .map(|i| {
             Vec3::new(
@@ -181,7 +198,7 @@ pub fn parse_mesh(
                 "NORMAL" | "TEXCOORD" if !later_texcoord_set => {
                     let source = ids.resolve(src, input, "source", "source")?;
                     let min = if semantic == "NORMAL" { 3 } else { 2 };
-                    sources.push(read_source(src, source, min)?);
+                    sources.push(read_source(src, ids, source, min)?);
                     inputs.push(ListInput {
                         semantic,
                         offset,

@@ -556,6 +556,16 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
                     format!("sphere's world radius {radius} is not a positive finite number"),
                 ));
             }
+            // As for mesh vertices: a sphere whose box overflows cannot be
+            // placed in the BVH.
+            if !(center.abs() + Vec3::splat(radius)).is_finite() {
+                return Err(src.error(
+                    instance,
+                    format!(
+                        "sphere at {center} of radius {radius:e} reaches beyond single precision"
+                    ),
+                ));
+            }
             let material = self.bound_material(instance, None)?;
             let spheres = &mut self.geometry.spheres;
             spheres.center.push(center);
