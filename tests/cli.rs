@@ -1182,6 +1182,43 @@ fn camera_settings_files_set_the_view() {
         "a moved camera rendered the same image"
     );
 
+    // A file whose far clipping plane stops short of the scene: said,
+    // naming the file; a scene camera's own far-plane warning gives way
+    // to the file's camera (here one that sees everything).
+    let mut short = scene.camera.clone();
+    short.zfar = 0.5 * (short.position - short.target).length();
+    let short_file = scratch("short.cam");
+    std::fs::write(&short_file, camera_file::write(&short, 64, 48)).unwrap();
+    let o = render("cam-short.exr", &["-c", short_file.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let says = format!(
+        "warning: -c {}: the whole scene lies beyond the far clipping plane",
+        short_file.display()
+    );
+    assert!(stderr(&o).contains(&says), "{}", stderr(&o));
+    let far_scene = scratch_path("far-away.dae");
+    let text = std::fs::read_to_string(scene_path).unwrap();
+    let clipped = text.replace(">100</zfar>", ">0.2</zfar>");
+    assert_ne!(clipped, text, "the built-in scene's zfar changed");
+    std::fs::write(&far_scene, clipped).unwrap();
+    let o = render_to(
+        far_scene.to_str().unwrap(),
+        &scratch("far.exr"),
+        &["-q", "-r", "8", "6"],
+    );
+    assert!(
+        stderr(&o).contains("beyond the far clipping plane"),
+        "{}",
+        stderr(&o)
+    );
+    let o = render_to(
+        far_scene.to_str().unwrap(),
+        &scratch("far-own.exr"),
+        &["-q", "-r", "8", "6", "-c", own.to_str().unwrap()],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("far clipping plane"), "{}", stderr(&o));
+
     // Written for 800×600 and rendered square: said.
     let wide = scratch("wide.cam");
     std::fs::write(&wide, camera_file::write(&scene.camera, 800, 600)).unwrap();

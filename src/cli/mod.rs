@@ -38,6 +38,7 @@ use crate::bvh::Bvh;
 use crate::film::adaptive::Adaptive;
 use crate::film::{Tile, output};
 use crate::integrator::{Settings, View};
+use crate::scene::camera::FAR_PLANE_WARNING;
 use crate::scene::{camera_file, collada};
 use crate::wavefront::{RenderSettings, Renderer};
 
@@ -321,7 +322,14 @@ fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
         Some(path) => collada::load_file(path)?,
         None => collada::load_str(DEFAULT_SCENE, std::path::Path::new(DEFAULT_SCENE_NAME))?,
     };
-    if let Some(camera) = camera {
+    if let (Some(camera), Some(file)) = (camera, &args.camera) {
+        // What the far clipping plane cuts off is the file's camera's
+        // business now, not the scene's.
+        scene.warnings.retain(|w| !w.contains(FAR_PLANE_WARNING));
+        let bounds = scene.geometry.bounds();
+        if let Some(cut) = camera.far_plane_cuts(bounds.min, bounds.max) {
+            scene.warnings.push(format!("-c {}: {cut}", file.display()));
+        }
         scene.camera = camera;
     }
     Ok(scene)

@@ -29,6 +29,9 @@ pub struct Camera {
     pub zfar: f32,
 }
 
+/// The words every [`Camera::far_plane_cuts`] warning contains.
+pub const FAR_PLANE_WARNING: &str = "beyond the far clipping plane";
+
 /// The camera's optics as the scene file states them.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Perspective {
@@ -119,6 +122,44 @@ impl Camera {
             screen_distance,
             znear,
             zfar,
+        }
+    }
+
+    /// What of the box `min..max` (the scene's) the far clipping plane
+    /// cuts off, if any, as a warning. The camera is placed by the
+    /// reference's rule (1.5 diagonals from the centre), so a large scene
+    /// with the default `zfar` of 1000 can lie wholly beyond it and render
+    /// black. Camera rays end at `zfar` along the view axis; the box's
+    /// corners are measured along it. Every such warning contains
+    /// [`FAR_PLANE_WARNING`].
+    pub fn far_plane_cuts(&self, min: Vec3, max: Vec3) -> Option<String> {
+        if !min.cmple(max).all() {
+            return None;
+        }
+        let forward = -self.camera_to_world.z_axis;
+        let (near, far) = (0..8)
+            .map(|k| {
+                let corner = Vec3::new(
+                    if k & 1 == 0 { min.x } else { max.x },
+                    if k & 2 == 0 { min.y } else { max.y },
+                    if k & 4 == 0 { min.z } else { max.z },
+                );
+                (corner - self.position).dot(forward)
+            })
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(n, f), d| {
+                (n.min(d), f.max(d))
+            });
+        let zfar = self.zfar;
+        if near > zfar {
+            Some(format!(
+                "the whole scene lies {FAR_PLANE_WARNING} (zfar {zfar}; the scene is {near:.4e} to {far:.4e} ahead of the camera), so nothing but lights can show; raise <zfar> in the camera's <optics>"
+            ))
+        } else if far > zfar {
+            Some(format!(
+                "part of the scene lies {FAR_PLANE_WARNING} (zfar {zfar}; the scene reaches {far:.4e} ahead of the camera) and is not drawn"
+            ))
+        } else {
+            None
         }
     }
 

@@ -665,7 +665,7 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
             ));
         }
         let camera = Camera::place(view_dir, &optics, bounds.min, bounds.max);
-        if let Some(warning) = beyond_far_plane(&camera, bounds.min, bounds.max) {
+        if let Some(warning) = camera.far_plane_cuts(bounds.min, bounds.max) {
             self.warnings.push(format!("{path}: {warning}"));
         }
         // A record instanced by several nodes (a light, a mesh) meets the
@@ -680,40 +680,5 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
             camera,
             self.warnings,
         )
-    }
-}
-
-/// What of the scene's box the far clipping plane cuts off, if any: the
-/// camera is placed by the reference's rule (1.5 diagonals from the
-/// centre), so a large scene with the default `zfar` of 1000 can lie
-/// wholly beyond it and render black. Camera rays end at `zfar` along
-/// the view axis; the box's corners are measured along it.
-fn beyond_far_plane(camera: &Camera, min: Vec3, max: Vec3) -> Option<String> {
-    if !min.cmple(max).all() {
-        return None;
-    }
-    let forward = -camera.camera_to_world.z_axis;
-    let depths = (0..8).map(|k| {
-        let corner = Vec3::new(
-            if k & 1 == 0 { min.x } else { max.x },
-            if k & 2 == 0 { min.y } else { max.y },
-            if k & 4 == 0 { min.z } else { max.z },
-        );
-        (corner - camera.position).dot(forward)
-    });
-    let (near, far) = depths.fold((f32::INFINITY, f32::NEG_INFINITY), |(n, f), d| {
-        (n.min(d), f.max(d))
-    });
-    let zfar = camera.zfar;
-    if near > zfar {
-        Some(format!(
-            "the whole scene lies beyond the far clipping plane (zfar {zfar}; the scene is {near:.4e} to {far:.4e} ahead of the camera), so nothing but lights can show; raise <zfar> in the camera's <optics>"
-        ))
-    } else if far > zfar {
-        Some(format!(
-            "part of the scene lies beyond the far clipping plane (zfar {zfar}; the scene reaches {far:.4e} ahead of the camera) and is not drawn"
-        ))
-    } else {
-        None
     }
 }
