@@ -74,8 +74,9 @@ pub fn compare(image: &Image, reference: &Image) -> Result<Metrics, SizeMismatch
             sq[c] += d * d;
             rel[c] += d * d / (r * r + REL_EPSILON);
             ape[c] += d.abs() / (r.abs() + REL_EPSILON);
-            // NaN must not vanish in max(): propagate it.
-            max[c] = if d.is_nan() {
+            // NaN must not vanish in max() (`f64::max` returns the other
+            // operand): once met, it stays.
+            max[c] = if d.is_nan() || max[c].is_nan() {
                 f64::NAN
             } else {
                 max[c].max(d.abs())
@@ -365,10 +366,15 @@ mod tests {
     #[test]
     fn nan_is_not_hidden() {
         let r = image(&[Vec3::ONE; 2]);
-        let x = image(&[Vec3::ONE, Vec3::new(f32::NAN, 1.0, 1.0)]);
-        let m = compare(&x, &r).unwrap();
-        assert!(m.overall.max_error.is_nan() && m.overall.rmse.is_nan());
-        assert!(!z_test(&x, &r, 1e-3, false).unwrap().passes());
+        // Wherever the NaN pixel is, first or last.
+        let bad = Vec3::new(f32::NAN, 1.0, 1.0);
+        for pixels in [[Vec3::ONE, bad], [bad, Vec3::ONE]] {
+            let x = image(&pixels);
+            let m = compare(&x, &r).unwrap();
+            assert!(m.overall.max_error.is_nan() && m.overall.rmse.is_nan());
+            assert!(m.channels[0].max_error.is_nan());
+            assert!(!z_test(&x, &r, 1e-3, false).unwrap().passes());
+        }
     }
 
     #[test]
