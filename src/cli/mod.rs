@@ -38,7 +38,6 @@ use crate::bvh::Bvh;
 use crate::film::adaptive::Adaptive;
 use crate::film::{Tile, output};
 use crate::integrator::{Settings, View};
-use crate::scene::camera::FAR_PLANE_WARNING;
 use crate::scene::{camera_file, collada};
 use crate::wavefront::{RenderSettings, Renderer};
 
@@ -325,10 +324,18 @@ fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
     if let (Some(camera), Some(file)) = (camera, &args.camera) {
         // What the far clipping plane cuts off is the file's camera's
         // business now, not the scene's.
-        scene.warnings.retain(|w| !w.contains(FAR_PLANE_WARNING));
+        let path = args.scene.as_deref();
+        let said = collada::far_plane_warning(
+            path.unwrap_or(std::path::Path::new(DEFAULT_SCENE_NAME)),
+            &scene,
+        );
+        scene.warnings.retain(|w| Some(w) != said.as_ref());
         let bounds = scene.geometry.bounds();
         if let Some(cut) = camera.far_plane_cuts(bounds.min, bounds.max) {
-            scene.warnings.push(format!("-c {}: {cut}", file.display()));
+            scene.warnings.push(format!(
+                "-c {}: {cut}; a larger far clip (the file's fifth number) moves the plane",
+                file.display()
+            ));
         }
         scene.camera = camera;
     }

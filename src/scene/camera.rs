@@ -29,9 +29,6 @@ pub struct Camera {
     pub zfar: f32,
 }
 
-/// The words every [`Camera::far_plane_cuts`] warning contains.
-pub const FAR_PLANE_WARNING: &str = "beyond the far clipping plane";
-
 /// The camera's optics as the scene file states them.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Perspective {
@@ -126,12 +123,13 @@ impl Camera {
     }
 
     /// What of the box `min..max` (the scene's) the far clipping plane
-    /// cuts off, if any, as a warning. The camera is placed by the
-    /// reference's rule (1.5 diagonals from the centre), so a large scene
-    /// with the default `zfar` of 1000 can lie wholly beyond it and render
-    /// black. Camera rays end at `zfar` along the view axis; the box's
-    /// corners are measured along it. Every such warning contains
-    /// [`FAR_PLANE_WARNING`].
+    /// cuts off, if any, as a warning; the caller says how to move the
+    /// plane. A scene's camera is placed by the reference's rule (1.5
+    /// diagonals from the centre), so a large scene with the default
+    /// `zfar` of 1000 can lie wholly beyond it and render black. Camera
+    /// rays end at `zfar` along the view axis; the box's corners are
+    /// measured along it (a sphere's box reaches a little further than
+    /// the sphere).
     pub fn far_plane_cuts(&self, min: Vec3, max: Vec3) -> Option<String> {
         if !min.cmple(max).all() {
             return None;
@@ -152,11 +150,11 @@ impl Camera {
         let zfar = self.zfar;
         if near > zfar {
             Some(format!(
-                "the whole scene lies {FAR_PLANE_WARNING} (zfar {zfar}; the scene is {near:.4e} to {far:.4e} ahead of the camera), so nothing but lights can show; raise <zfar> in the camera's <optics>"
+                "the whole scene lies beyond the far clipping plane (zfar {zfar}; the scene is {near:.4e} to {far:.4e} ahead of the camera), so none of it can show"
             ))
         } else if far > zfar {
             Some(format!(
-                "part of the scene lies {FAR_PLANE_WARNING} (zfar {zfar}; the scene reaches {far:.4e} ahead of the camera) and is not drawn"
+                "part of the scene lies beyond the far clipping plane (zfar {zfar}; the scene reaches {far:.4e} ahead of the camera) and is not drawn"
             ))
         } else {
             None

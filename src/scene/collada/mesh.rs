@@ -80,7 +80,11 @@ fn read_source(
     // The numbers read are always the source's own array; an accessor
     // that names another (or nothing) would be read wrongly, so it is an
     // error rather than ignored.
-    if accessor.attribute("source").is_some() {
+    if let Some(url) = accessor.attribute("source")
+        && url.strip_prefix('#') != array.attribute("id")
+    {
+        // Compared by text first: with ids repeated in a file, a lookup
+        // would find the last element of the id, not this one.
         let named = ids.resolve(src, accessor, "source", "float_array")?;
         if named != array {
             return Err(src.error(

@@ -631,24 +631,17 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
                 ));
             }
         }
-        // Area lights are not geometry, but their arithmetic has the same
-        // limit: past it, shadow rays toward them lose their precision.
+        // Area lights are not geometry yet (the scene's assembly makes each
+        // two triangles) and are held to the same limit.
         let light_reach = self
             .lights
             .iter()
-            .filter_map(|light| match light {
-                Light::Area {
-                    center,
-                    dim_x,
-                    dim_y,
-                    ..
-                } => Some((center.abs() + dim_x.abs() + dim_y.abs()).max_element()),
-                _ => None,
-            })
-            .fold(0.0f32, f32::max);
+            .filter_map(Light::area_corners)
+            .flatten()
+            .fold(0.0f32, |m, corner| m.max(corner.abs().max_element()));
         if light_reach > MAX_COORDINATE {
             self.warnings.push(format!(
-                "{path}: an area light reaches {light_reach:e} from the origin; past {MAX_COORDINATE:e} single-precision arithmetic cannot place points on it, and it may light nothing"
+                "{path}: an area light reaches {light_reach:e}; past {MAX_COORDINATE:e} the single-precision ray/triangle test overflows, and the light may be missed by camera rays and light nothing"
             ));
         }
         let (view_dir, optics) = match &self.camera {
@@ -665,20 +658,35 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
             ));
         }
         let camera = Camera::place(view_dir, &optics, bounds.min, bounds.max);
-        if let Some(warning) = camera.far_plane_cuts(bounds.min, bounds.max) {
-            self.warnings.push(format!("{path}: {warning}"));
-        }
         // A record instanced by several nodes (a light, a mesh) meets the
         // same problem at each: said once, where it was first met.
         let mut said = std::collections::HashSet::new();
         self.warnings.retain(|w| said.insert(w.clone()));
 
-        Scene::assemble(
+        let mut scene = Scene::assemble(
             self.geometry,
             self.materials,
             self.lights,
             camera,
             self.warnings,
-        )
+        );
+        // Measured on the assembled scene, whose area lights are triangles
+        // too, as a camera settings file's camera is (`-c`).
+        if let Some(warning) = far_plane_warning(self.src.path, &scene) {
+            scene.warnings.push(warning);
+        }
+        scene
     }
+}
+
+/// The warning a scene loaded from `path` carries when its camera's far
+/// clipping plane cuts it off ([`Camera::far_plane_cuts`]); a caller that
+/// replaces the camera can find it by this text.
+pub fn far_plane_warning(path: &Path, scene: &Scene) -> Option<String> {
+    let bounds = scene.geometry.bounds();
+    let cut = scene.camera.far_plane_cuts(bounds.min, bounds.max)?;
+    Some(format!(
+        "{}: {cut}; a larger <zfar> in the camera's <optics> moves the plane",
+        path.display()
+    ))
 }

@@ -43,7 +43,14 @@ pub fn node_local_transform(
                 // The bottom row of an affine transform; points and
                 // directions are moved as if it were (the renderer has no
                 // projective transforms), which the user is told.
-                if v[12..] != [0.0, 0.0, 0.0, 1.0] {
+                // (Within 1e-6: exporters working in f64 may write
+                // 1.0000001.)
+                let bottom = [0.0, 0.0, 0.0, 1.0];
+                if v[12..]
+                    .iter()
+                    .zip(bottom)
+                    .any(|(x, want)| (x - want).abs() > 1e-6)
+                {
                     warnings.push(src.warning(
                         t,
                         format!(
