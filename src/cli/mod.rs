@@ -325,12 +325,13 @@ fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
         // What the far clipping plane cuts off is the file's camera's
         // business now, not the scene's.
         let path = args.scene.as_deref();
+        let bounds = scene.geometry.bounds();
         let said = collada::far_plane_warning(
             path.unwrap_or(std::path::Path::new(DEFAULT_SCENE_NAME)),
-            &scene,
+            &scene.camera,
+            &bounds,
         );
         scene.warnings.retain(|w| Some(w) != said.as_ref());
-        let bounds = scene.geometry.bounds();
         if let Some(cut) = camera.far_plane_cuts(bounds.min, bounds.max) {
             scene.warnings.push(format!(
                 "-c {}: {cut}; a larger far clip (the file's fifth number) moves the plane",

@@ -17,7 +17,9 @@
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
-use std::sync::{Mutex, PoisonError};
+use std::sync::Mutex;
+
+use super::lock;
 
 /// The tiles waiting for a pass: (pass, tile), lowest pass first, ties by
 /// tile index (row-major order within a pass).
@@ -36,14 +38,12 @@ impl TileQueue {
 
     /// The next (pass, tile) to render, if any tile is waiting.
     pub fn take(&self) -> Option<(u32, usize)> {
-        let mut waiting = self.waiting.lock().unwrap_or_else(PoisonError::into_inner);
-        waiting.pop().map(|Reverse(next)| next)
+        lock(&self.waiting).pop().map(|Reverse(next)| next)
     }
 
     /// Puts `tile` back, waiting for its pass `pass`.
     pub fn give_back(&self, tile: usize, pass: u32) {
-        let mut waiting = self.waiting.lock().unwrap_or_else(PoisonError::into_inner);
-        waiting.push(Reverse((pass, tile)));
+        lock(&self.waiting).push(Reverse((pass, tile)));
     }
 }
 

@@ -28,7 +28,7 @@ use mesh::LocalMesh;
 use xml::{Ids, child, children, path};
 
 use crate::lanes::normalize_any_scale;
-use crate::scene::{Camera, Geometry, Light, Material, NamedMaterial, Perspective, Scene};
+use crate::scene::{Aabb, Camera, Geometry, Light, Material, NamedMaterial, Perspective, Scene};
 
 /// How deep `<node>`/`<instance_node>` nesting may go.
 const MAX_NODE_DEPTH: usize = 256;
@@ -672,19 +672,20 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
         );
         // Measured on the assembled scene, whose area lights are triangles
         // too, as a camera settings file's camera is (`-c`).
-        if let Some(warning) = far_plane_warning(self.src.path, &scene) {
+        let bounds = scene.geometry.bounds();
+        if let Some(warning) = far_plane_warning(self.src.path, &scene.camera, &bounds) {
             scene.warnings.push(warning);
         }
         scene
     }
 }
 
-/// The warning a scene loaded from `path` carries when its camera's far
-/// clipping plane cuts it off ([`Camera::far_plane_cuts`]); a caller that
-/// replaces the camera can find it by this text.
-pub fn far_plane_warning(path: &Path, scene: &Scene) -> Option<String> {
-    let bounds = scene.geometry.bounds();
-    let cut = scene.camera.far_plane_cuts(bounds.min, bounds.max)?;
+/// The warning a scene loaded from `path`, of bounds `bounds` (its
+/// assembled geometry's), carries when its camera's far clipping plane
+/// cuts it off ([`Camera::far_plane_cuts`]); a caller that replaces the
+/// camera can find it by this text.
+pub fn far_plane_warning(path: &Path, camera: &Camera, bounds: &Aabb) -> Option<String> {
+    let cut = camera.far_plane_cuts(bounds.min, bounds.max)?;
     Some(format!(
         "{}: {cut}; a larger <zfar> in the camera's <optics> moves the plane",
         path.display()
