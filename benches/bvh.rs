@@ -868,6 +868,22 @@ fn trace_profiled(bvh: &Bvh, set: &RaySet, repeat: usize) -> TraversalStats {
     stats
 }
 
+/// Loads each CS184 scene of the benchmark that `BVH_BENCH_SCENES` asks
+/// for (all by default) and hands it to `run`.
+fn for_each_cs184_scene(mut run: impl FnMut(&Workload)) {
+    for (name, rel) in [
+        ("CBbunny", "sky/CBbunny.dae"),
+        ("maxplanck", "meshedit/maxplanck.dae"),
+        ("building", "keenan/building.dae"),
+    ] {
+        if wanted(name)
+            && let Some(w) = load(name, rel)
+        {
+            run(&w);
+        }
+    }
+}
+
 fn main() {
     let mut c = Criterion::default().configure_from_args();
     let profiled = std::env::var("BVH_BENCH_PROFILE").ok();
@@ -882,17 +898,7 @@ fn main() {
             Some(kind) => profile(w, kind),
             None => quick(w),
         };
-        for (name, rel) in [
-            ("CBbunny", "sky/CBbunny.dae"),
-            ("maxplanck", "meshedit/maxplanck.dae"),
-            ("building", "keenan/building.dae"),
-        ] {
-            if wanted(name)
-                && let Some(w) = load(name, rel)
-            {
-                run(&w);
-            }
-        }
+        for_each_cs184_scene(&run);
         for n in [16, 64, 256, 512, 1024] {
             if wanted(&sphere_name(n)) {
                 run(&bumpy_sphere(n));
@@ -910,17 +916,7 @@ fn main() {
         if !dir.is_dir() {
             println!("skipping the CS184 scenes: {} not found", dir.display());
         }
-        for (name, rel) in [
-            ("CBbunny", "sky/CBbunny.dae"),
-            ("maxplanck", "meshedit/maxplanck.dae"),
-            ("building", "keenan/building.dae"),
-        ] {
-            if wanted(name)
-                && let Some(w) = load(name, rel)
-            {
-                bench_workload(&mut c, &w);
-            }
-        }
+        for_each_cs184_scene(|w| bench_workload(&mut c, w));
         for (name, n) in [("sphere1M", 512), ("sphere4M", 1024)] {
             if wanted(name) {
                 bench_workload(&mut c, &bumpy_sphere(n));
