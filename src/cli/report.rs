@@ -239,6 +239,7 @@ impl ProgressLines {
 #[cfg(test)]
 mod tests {
     use super::{LightSet, LightSource, ProgressLines, emitters, samples_taken};
+    use crate::integrator::lights::TrianglePick;
     use glam::Vec3;
     use std::time::Duration;
 
@@ -253,8 +254,7 @@ mod tests {
         let mesh = |n: usize| LightSource::Mesh {
             triangles: vec![[Vec3::X, Vec3::Y, Vec3::Z]; n],
             radiance: vec![Vec3::ONE; n],
-            cdf: vec![1.0; n],
-            total_area: 1.0,
+            pick: TrianglePick::by_area(&vec![1.0; n]),
             scene_extent: 1.0,
         };
         let sphere = LightSource::Sphere {

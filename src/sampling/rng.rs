@@ -257,8 +257,15 @@ impl SampleStream {
     /// sequence started at this sample's base.
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
+        to_unit_float(self.next_u32())
+    }
+
+    /// The next independent 32 random bits: the draw [`next_1d`](Self::next_1d)
+    /// makes a number of, whole (for choices among more than 2²⁴ things).
+    #[inline]
+    pub fn next_u32(&mut self) -> u32 {
         self.dimension += 1;
-        to_unit_float(weyl_hash(self.base, self.dimension))
+        weyl_hash(self.base, self.dimension)
     }
 
     /// The next two-dimensional draw, from the next Sobol dimension pair.

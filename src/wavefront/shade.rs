@@ -324,7 +324,8 @@ fn direct_lights(
 }
 
 /// [`LightSource::sample`] lane by lane, for the lights without an
-/// eight-lane form; meshes take their third number from each path's stream.
+/// eight-lane form; meshes take the bits that pick a triangle from each
+/// path's stream.
 fn sample_lanes(
     light: &LightSource,
     paths: &mut Paths,
@@ -335,13 +336,13 @@ fn sample_lanes(
 ) -> LightSamples {
     let mut out = [None; LANES];
     for lane in lanes::each(direct) {
-        let w = if light.uses_w() {
-            paths.stream[start + lane].next_1d()
+        let pick = if light.uses_pick() {
+            paths.stream[start + lane].next_u32()
         } else {
-            0.0
+            0
         };
         let (u, v) = (u.as_array()[lane], v.as_array()[lane]);
-        out[lane] = light.sample(p.lane(lane), p_out.lane(lane), n.lane(lane), u, v, w);
+        out[lane] = light.sample(p.lane(lane), p_out.lane(lane), n.lane(lane), u, v, pick);
     }
     LightSamples::from_lanes(&out)
 }
