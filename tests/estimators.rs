@@ -406,6 +406,13 @@ fn hemisphere_sampling_light_sampling_and_one_bounce_agree() {
     s.integrator.light_samples = 4;
     let hemi = channel(&render(&scene, &s, 2), 0);
     assert_unbiased("square light, hemisphere sampling", &hemi, &expected, 1e-5);
+    // Light sampling at -m 2, every bounce accumulated: light cannot
+    // bounce twice here (floor only), so the same direct light as -m 1
+    // (light sampling at -m 1: `rectangle_light_matches_the_form_factor`).
+    let mut s = settings(w, h, 16, 2);
+    s.integrator.light_samples = 4;
+    let two = channel(&render(&scene, &s, 2), 0);
+    assert_unbiased("square light, -m 2", &two, &expected, 1e-5);
     // -m 2, only the last bounce, in a scene where light cannot bounce twice
     // (floor only): zero, so direct lighting is all of -m 1.
     let mut s = settings(w, h, 4, 2);
@@ -444,21 +451,11 @@ fn sphere_light_matches_the_closed_form() {
     });
     let mut s = settings(w, h, 16, 1);
     s.integrator.light_samples = 4;
-    let image = render(&scene, &s, 2);
-    // Leave out pixels whose camera ray hits the sphere.
-    let keep: Vec<usize> = (0..(w * h) as usize)
-        .filter(|&i| {
-            let (x, row) = ((i as u32) % w, (i as u32) / w);
-            let d = pixel_ray(&scene, w, h, x, row).normalize();
-            let oc = scene.camera.position - center;
-            let b = oc.dot(d);
-            b * b - (oc.length_squared() - radius * radius) < 0.0
-        })
-        .collect();
-    assert!(keep.len() > (w * h) as usize / 2);
-    let est: Vec<f64> = keep.iter().map(|&i| image.pixels[i].x as f64).collect();
-    let exp: Vec<f64> = keep.iter().map(|&i| expected[i]).collect();
-    assert_unbiased("sphere light", &est, &exp, 1e-5);
+    // Every pixel sees the floor: the camera's rays all point down from
+    // y = 0.8, the sphere's lowest point.
+    assert!(center.y - radius >= 0.8);
+    let est = channel(&render(&scene, &s, 2), 0);
+    assert_unbiased("sphere light", &est, &expected, 1e-5);
 }
 
 /// Each path's light samples are drawn for its own shading point: one
@@ -581,11 +578,13 @@ fn adaptive_and_fixed_sampling_agree() {
         "{:?}",
         adaptive.samples
     );
+    // The same 0.5% slack: one sample too few here (+1/96 on every
+    // pixel, all of which stop at the first test) fails.
     let est = channel(&adaptive, 1);
-    assert_unbiased("furnace, adaptive", &est, &vec![expected; est.len()], 0.01);
+    assert_unbiased("furnace, adaptive", &est, &vec![expected; est.len()], 5e-3);
 }
 
-/// Convergence tests further apart than the renderer's largest pass (64
+/// Convergence tests further apart than the renderer's largest pass (16
 /// samples) fall exactly every `samples_per_batch` samples, and a pixel
 /// that never converges takes exactly `-s`, the last pass cut short. The
 /// pixels stop at different counts here (the furnace's all stop at the
