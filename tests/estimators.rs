@@ -244,6 +244,62 @@ fn floor_scene(b: &mut Builder) {
     );
 }
 
+/// Camera rays run from `znear` to `zfar` along their unit directions, as
+/// the reference's do, so the far clipping surface is a sphere about the
+/// eye: looking straight down from height 1 at a floor under a sky, with
+/// zfar 1.3, the floor shows as a disc of radius √(1.3² − 1) ≈ 0.83
+/// about the nadir (lit pixels read ρ·L exactly, sky light by light
+/// sampling) and black outside it. (Clipped at the plane 1.3 below the
+/// eye, the whole floor, 1 below, would show.) Pixels the circle crosses
+/// are not checked.
+#[test]
+fn camera_rays_end_at_zfar_along_each_ray() {
+    let mut b = Builder::default();
+    floor_scene(&mut b);
+    b.lights.push(Light::Hemisphere {
+        radiance: Vec3::ONE,
+    });
+    let mut camera = top_down_camera(1.0);
+    (camera.znear, camera.zfar) = (0.2, 1.3);
+    let scene = b.build(camera);
+    let (w, h) = (W, H);
+    let image = render(&scene, &settings(w, h, 4, 1), 2);
+    let camera = &scene.camera;
+    let view = camera.view(w, h);
+    // Distance from the eye to the floor point seen at film position (fx, fy).
+    let distance = |fx: f32, fy: f32| {
+        let d = camera.direction(&view, fx, fy).normalize();
+        (1.0 / -d.y) as f64
+    };
+    let (nadir_x, nadir_y) = (w as f32 / 2.0, h as f32 / 2.0);
+    let (mut lit, mut dark) = (0, 0);
+    for row in 0..h {
+        let y = (h - 1 - row) as f32;
+        for x in 0..w {
+            let x = x as f32;
+            // The farthest point of the pixel is a corner; the nearest is
+            // the nadir clamped into the pixel.
+            let farthest = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+                .map(|(i, j)| distance(x + i, y + j))
+                .into_iter()
+                .fold(0.0, f64::max);
+            let nearest = distance(nadir_x.clamp(x, x + 1.0), nadir_y.clamp(y, y + 1.0));
+            let value = image.pixels[(row * w) as usize + x as usize];
+            if farthest < 1.3 {
+                lit += 1;
+                assert!(
+                    (value - Vec3::splat(ALBEDO)).abs().max_element() < 1e-5,
+                    "pixel ({x}, {row}), at most {farthest} away: {value}"
+                );
+            } else if nearest > 1.3 {
+                dark += 1;
+                assert_eq!(value, Vec3::ZERO, "pixel ({x}, {row}), {nearest} away");
+            }
+        }
+    }
+    assert!(lit > 100 && dark > 300, "{lit} lit, {dark} dark pixels");
+}
+
 /// Looking straight down from `height` with a 90° vertical field of view
 /// over a `W × H` image (below any light in these scenes).
 fn top_down_camera(height: f32) -> wavepath::scene::Camera {

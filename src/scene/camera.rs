@@ -127,34 +127,35 @@ impl Camera {
     /// plane. A scene's camera is placed by the reference's rule (1.5
     /// diagonals from the centre), so a large scene with the default
     /// `zfar` of 1000 can lie wholly beyond it and render black. Camera
-    /// rays end at `zfar` along the view axis; the box's corners are
-    /// measured along it (a sphere's box reaches a little further than
-    /// the sphere).
+    /// rays end at distance `zfar` from the eye (the clipping "plane" is
+    /// a sphere about it, as in the reference), so the box's nearest
+    /// point and farthest corner are measured by distance (a sphere's box
+    /// reaches a little further than the sphere).
     pub fn far_plane_cuts(&self, min: Vec3, max: Vec3) -> Option<String> {
         if !min.cmple(max).all() {
             return None;
         }
-        let forward = -self.camera_to_world.z_axis;
-        let (near, far) = (0..8)
+        let eye = self.position.as_dvec3();
+        let (min, max) = (min.as_dvec3(), max.as_dvec3());
+        let near = (eye.clamp(min, max) - eye).length();
+        let far = (0..8)
             .map(|k| {
-                let corner = Vec3::new(
+                let corner = glam::DVec3::new(
                     if k & 1 == 0 { min.x } else { max.x },
                     if k & 2 == 0 { min.y } else { max.y },
                     if k & 4 == 0 { min.z } else { max.z },
                 );
-                (corner - self.position).dot(forward)
+                (corner - eye).length()
             })
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(n, f), d| {
-                (n.min(d), f.max(d))
-            });
+            .fold(0.0, f64::max);
         let zfar = self.zfar;
-        if near > zfar {
+        if near > f64::from(zfar) {
             Some(format!(
-                "the whole scene lies beyond the far clipping plane (zfar {zfar}; the scene is {near:.4e} to {far:.4e} ahead of the camera), so none of it can show"
+                "the whole scene lies beyond the far clipping plane (zfar {zfar}; the scene is {near:.4e} to {far:.4e} from the camera), so none of it can show"
             ))
-        } else if far > zfar {
+        } else if far > f64::from(zfar) {
             Some(format!(
-                "part of the scene lies beyond the far clipping plane (zfar {zfar}; the scene reaches {far:.4e} ahead of the camera) and is not drawn"
+                "part of the scene lies beyond the far clipping plane (zfar {zfar}; the scene reaches {far:.4e} from the camera) and is not drawn"
             ))
         } else {
             None

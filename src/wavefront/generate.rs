@@ -123,8 +123,11 @@ pub fn refill(
         } else {
             (Vec3x8::splat(camera.position), dir)
         };
-        // Start at the near plane along the view axis: t ∈ [znear, zfar]
-        // for a direction whose camera-space z is −1.
+        // Unit directions, and t ∈ [znear, zfar] along them, as the
+        // reference sets its camera rays: the clipping surfaces are
+        // spheres about the eye (or the lens point), not planes. The ray
+        // starts at znear (the BVH's queries start at t = 0).
+        let (dir, _) = dir.normalize();
         let origin = origin + dir * f32x8::splat(camera.znear);
         paths.start(n, &slots, &streams, origin, dir, t_max);
     }
@@ -249,6 +252,7 @@ mod tests {
         } else {
             (camera.position, pinhole)
         };
+        let dir = crate::lanes::normalize_any_scale(dir).unwrap();
         (origin + camera.znear * dir, dir, stream)
     }
 }
