@@ -176,6 +176,42 @@ fn up_axes_map_as_the_reference_does() {
     assert!(warned(&scene, "Y_UP"), "{:?}", scene.warnings);
 }
 
+/// Units are not applied (the reference ignores them too), and a file that
+/// asks for a scale other than one unit to the metre is told so; the
+/// geometry stays where the file's numbers put it.
+#[test]
+fn units_other_than_metres_are_read_as_they_stand_with_a_warning() {
+    let with_unit = |unit: &str| {
+        load(&BASE.replacen(
+            "<up_axis>Y_UP</up_axis>",
+            &format!("{unit}<up_axis>Y_UP</up_axis>"),
+            1,
+        ))
+    };
+    let plain = load(BASE);
+    for unit in [
+        "",
+        r#"<unit name="meter" meter="1"/>"#,
+        r#"<unit meter=" 1.0 "/>"#,
+    ] {
+        let scene = with_unit(unit);
+        assert!(scene.warnings.is_empty(), "{unit}: {:?}", scene.warnings);
+    }
+    for meter in ["0.01", "1000", "one"] {
+        let scene = with_unit(&format!(r#"<unit name="centimeter" meter="{meter}"/>"#));
+        assert_eq!(
+            scene.geometry.triangles.positions, plain.geometry.triangles.positions,
+            "meter {meter}"
+        );
+        assert!(
+            warned(&scene, &format!("<unit meter=\"{meter}\"> is not applied")),
+            "{:?}",
+            scene.warnings
+        );
+        assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    }
+}
+
 /// A second material, `red`, for the binding tests.
 const RED: &str = r##"<material id="red" name="red"><instance_effect url="#red-fx"/></material>
   </library_materials>"##;

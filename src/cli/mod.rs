@@ -420,7 +420,7 @@ pub fn run() -> Result<i32> {
     let renderer = Renderer::new(&scene, &bvh);
     if settings.integrator.view == View::Path {
         for w in &renderer.warnings {
-            eprintln!("warning: {w}");
+            eprintln!("warning: {}: {w}", scene_name.display());
         }
         for note in settings.integrator.blind_spots(&scene.lights) {
             eprintln!("warning: {note}");

@@ -35,12 +35,24 @@ pub fn prepare(materials: &[NamedMaterial], warnings: &mut Vec<String>) -> Vec<S
     materials
         .iter()
         .map(|m| {
-            let fallback = |albedo: Vec3, warned: &mut Vec<&str>, warnings: &mut Vec<String>| {
+            // `source`: the record's colour the albedo is, if any. One
+            // warning per kind; each material keeps its own albedo.
+            let fallback = |albedo: Vec3,
+                            source: Option<&str>,
+                            warned: &mut Vec<&str>,
+                            warnings: &mut Vec<String>| {
                 let kind = m.material.kind_name();
                 if !warned.contains(&kind) {
                     warned.push(kind);
+                    let how = match source {
+                        Some(source) => format!(
+                            "each as diffuse with its {source} as albedo ({:?}: {albedo})",
+                            m.name
+                        ),
+                        None => format!("them as diffuse with albedo {albedo}"),
+                    };
                     warnings.push(format!(
-                        "{kind} materials (first: {:?}) are not rendered yet; shading them as diffuse with albedo {albedo}",
+                        "{kind} materials (first: {:?}) are not rendered yet; shading {how}",
                         m.name
                     ));
                 }
@@ -55,13 +67,74 @@ pub fn prepare(materials: &[NamedMaterial], warnings: &mut Vec<String>) -> Vec<S
                     radiance: *radiance,
                     one_sided: *one_sided,
                 },
-                Material::Mirror { reflectance } => fallback(*reflectance, &mut warned, warnings),
-                Material::Glass { reflectance, .. } => fallback(*reflectance, &mut warned, warnings),
-                Material::Refraction { transmittance, .. } => {
-                    fallback(*transmittance, &mut warned, warnings)
+                Material::Mirror { reflectance } | Material::Glass { reflectance, .. } => {
+                    fallback(*reflectance, Some("reflectance"), &mut warned, warnings)
                 }
-                Material::Microfacet { .. } => fallback(Vec3::splat(0.5), &mut warned, warnings),
+                Material::Refraction { transmittance, .. } => {
+                    fallback(*transmittance, Some("transmittance"), &mut warned, warnings)
+                }
+                Material::Microfacet { .. } => {
+                    fallback(Vec3::splat(0.5), None, &mut warned, warnings)
+                }
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Records not rendered yet fall back to diffuse surfaces, each with
+    /// its own colour, under one warning per kind that names the first.
+    #[test]
+    fn fallbacks_keep_each_material_s_colour_under_one_warning_per_kind() {
+        let named = |name: &str, material| NamedMaterial {
+            name: name.into(),
+            material,
+        };
+        let materials = [
+            named(
+                "bright",
+                Material::Mirror {
+                    reflectance: Vec3::ONE,
+                },
+            ),
+            named(
+                "dim",
+                Material::Mirror {
+                    reflectance: Vec3::splat(0.2),
+                },
+            ),
+            named(
+                "clear",
+                Material::Refraction {
+                    transmittance: Vec3::new(0.9, 0.8, 0.7),
+                    roughness: 0.0,
+                    ior: 1.5,
+                },
+            ),
+            named("wall", Material::DEFAULT),
+        ];
+        let mut warnings = Vec::new();
+        let surfaces = prepare(&materials, &mut warnings);
+        let albedo = |s: &Surface| match s {
+            Surface::Diffuse { albedo } => *albedo,
+            Surface::Emitter { .. } => panic!("{s:?}"),
+        };
+        let albedos: Vec<Vec3> = surfaces.iter().map(albedo).collect();
+        assert_eq!(
+            albedos,
+            [
+                Vec3::ONE,
+                Vec3::splat(0.2),
+                Vec3::new(0.9, 0.8, 0.7),
+                Vec3::splat(0.5)
+            ]
+        );
+        assert_eq!(warnings.len(), 2, "{warnings:?}");
+        assert!(warnings[0].starts_with("mirror materials (first: \"bright\")"));
+        assert!(warnings[0].contains("each as diffuse with its reflectance as albedo"));
+        assert!(warnings[1].contains("with its transmittance as albedo"));
+    }
 }

@@ -232,6 +232,22 @@ impl<'a, 'i> Loader<'_, 'a, 'i> {
             }
         };
 
+        // The reference ignores units; so does wavepath, but says so where
+        // the file asks for a scale (a centimetre file's point lights then
+        // fall off per centimetre, not per metre).
+        if let Some(unit) = path(root, &["asset", "unit"])
+            && let Some(meter) = unit.attribute("meter")
+            && meter.trim().parse::<f64>() != Ok(1.0)
+        {
+            self.warnings.push(src.warning(
+                unit,
+                format!(
+                    "<unit meter=\"{meter}\"> is not applied: coordinates are read as they \
+                     stand, one unit to the metre, as the reference reads them"
+                ),
+            ));
+        }
+
         let scene = match path(root, &["scene", "instance_visual_scene"]) {
             Some(instance) => self.ids.resolve(src, instance, "url", "visual_scene")?,
             None => child(root, "library_visual_scenes")
