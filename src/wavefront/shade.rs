@@ -45,7 +45,7 @@ pub struct ShadeInputs<'a> {
 /// one block for all hemisphere probes. A fixed layout lets the whole
 /// wave's draws be made up front, eight paths at a time, and gives every
 /// vertex depth the same dimension pairs in every sample of a pixel, so
-/// each draw is stratified across the pixel's samples.
+/// the draws of each block are stratified across the pixel's samples.
 fn vertex_blocks<'a>(inputs: &ShadeInputs<'a>, light: WaveLight) -> impl Iterator<Item = u32> + 'a {
     let settings = inputs.settings;
     let sources = &inputs.lights.sources;
