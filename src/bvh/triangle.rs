@@ -29,6 +29,12 @@
 //! images are then still deterministic, but not bit-identical to an FMA
 //! build's.
 //!
+//! The distance of a hit weighs the vertices' depths by the edge
+//! functions. Where those are ill-conditioned (a sliver, or a triangle
+//! seen edge-on: products far larger than the determinant) the weights can
+//! be far off, so such hits take the distance to the triangle's plane,
+//! computed in f64, instead; which lanes hit is decided as above either way.
+//!
 //! Triangles are stored as [`TriGroup`]s: the three vertices of [`TRI_WIDTH`]
 //! triangles, one SIMD register per vertex coordinate, so a group test is a
 //! straight run of vector arithmetic with no gathers.
@@ -335,9 +341,23 @@ fn test_pairs(
     let cx = sx.mul_neg_add(cz, p(2, 0) - ox);
     let cy = sy.mul_neg_add(cz, p(2, 1) - oy);
 
-    let mut u = cx * by - cy * bx;
-    let mut v = ax * cy - ay * cx;
-    let mut w = bx * ay - by * ax;
+    // The edge functions' products, kept apart to bound their rounding
+    // below (the same multiplications either way).
+    let (cxby, cybx) = (cx * by, cy * bx);
+    let (axcy, aycx) = (ax * cy, ay * cx);
+    let (bxay, byax) = (bx * ay, by * ax);
+    let mut u = cxby - cybx;
+    let mut v = axcy - aycx;
+    let mut w = bxay - byax;
+    // Lanes whose edge functions are ill-conditioned (see below), found
+    // here so that the products need not be kept: for a hit, where the
+    // three agree in sign, |u| + |v| + |w| is |det|.
+    let magnitude =
+        (cxby.abs() + cybx.abs()) + (axcy.abs() + aycx.abs()) + (bxay.abs() + byax.abs());
+    let size = u.abs() + v.abs() + w.abs();
+    let ill_conditioned = magnitude
+        .simd_gt(size * TriLanes::splat(ILL_CONDITIONED))
+        .to_bitmask();
 
     // Exact zeros: the ray passes (numerically) through an edge or vertex.
     // Redo those lanes in double precision, where the products are exact.
@@ -367,7 +387,18 @@ fn test_pairs(
         };
     }
     let t_num = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
-    let t = t_num / det;
+    let mut t = t_num / det;
+    // `t` weighs the vertices' depths by the edge functions, whose rounding
+    // is ε times their products' magnitudes. Where those dwarf the
+    // determinant — a sliver, or a triangle seen edge-on — the weights and
+    // so `t` can be far off (a long thin triangle's hit was put at half its
+    // distance, outside the triangle's own box, so the hierarchy and brute
+    // force disagreed, and shadow rays met the surface they left). Those
+    // lanes take the distance to the triangle's plane instead, in f64.
+    let ill = inside.to_bitmask() & ill_conditioned;
+    if ill != 0 {
+        plane_distance_f64(ill, &p, [ox, oy, oz], [sx, sy, sz], &mut t);
+    }
     let ok = inside & t.simd_ge(zero) & t.simd_le(t_far);
     GroupHit {
         mask: ok.to_bitmask(),
@@ -376,6 +407,42 @@ fn test_pairs(
         w,
         det,
     }
+}
+
+/// How much larger than the determinant the edge functions' products may
+/// be before [`test_pairs`] measures a hit's distance from the plane: a
+/// well-shaped triangle seen face-on keeps them within a few times it.
+const ILL_CONDITIONED: f32 = 4.0;
+
+/// The distance along the ray to the plane of each lane's triangle in
+/// `lanes`, in f64 (arguments as for [`test_pairs`]): with the direction
+/// (sx, sy, 1)/sz in the permuted frame and n = (B − A) × (C − A),
+/// t = sz · n·(A − o) / n·(sx, sy, 1).
+#[cold]
+#[inline(never)]
+fn plane_distance_f64(
+    lanes: u32,
+    p: &impl Fn(usize, usize) -> TriLanes,
+    o: [TriLanes; 3],
+    s: [TriLanes; 3],
+    t: &mut TriLanes,
+) {
+    use glam::DVec3;
+    let vertex = |k: usize| [0, 1, 2].map(|axis| p(k, axis).to_array());
+    let (a, b, c) = (vertex(0), vertex(1), vertex(2));
+    let (o, s) = (o.map(TriLanes::to_array), s.map(TriLanes::to_array));
+    let mut out = t.to_array();
+    let mut bits = lanes;
+    while bits != 0 {
+        let i = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        let point = |v: &[[f32; TRI_WIDTH]; 3]| DVec3::from_array(v.map(|x| f64::from(x[i])));
+        let (a, b, c, o) = (point(&a), point(&b), point(&c), point(&o));
+        let n = (b - a).cross(c - a);
+        let toward = DVec3::new(f64::from(s[0][i]), f64::from(s[1][i]), 1.0);
+        out[i] = (f64::from(s[2][i]) * n.dot(a - o) / n.dot(toward)) as f32;
+    }
+    *t = TriLanes::from(out);
 }
 
 /// Recomputes the edge functions of the lanes in `lanes` in f64.
