@@ -1098,3 +1098,44 @@ fn slivers_agree_with_brute_force_and_release_their_shadow_rays() {
     }
     assert_eq!(compare(&floor, &rays), Ok(0), "shadow rays met the fan");
 }
+
+/// Direction components below f32's normal range count as zeros in every
+/// query. Their reciprocals overflow, so the box test took such a ray for
+/// parallel to the axis while the triangle test did not: a ray starting
+/// 1e-44 outside a triangle's edge plane with a 1e-40 component toward it
+/// hit in brute force and missed in the hierarchies. Now every structure
+/// answers alike (and the ray, moving less than f32 can show, misses).
+#[test]
+fn subnormal_direction_components_count_as_zero() {
+    let tri = [
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(0.0, 1.0, 1.0),
+    ];
+    let g = geometry(
+        tri.to_vec(),
+        vec![[0, 1, 2]],
+        vec![(Vec3::new(-3.0, 0.25, 1.0), 0.5)],
+    );
+    let mut rays = Rays::default();
+    for (x, dx) in [
+        (-1e-44, 1e-40),
+        (1e-44, -1e-40),
+        (-1e-44, -1e-40),
+        (0.0, 1e-39),
+    ] {
+        for t_max in [f32::INFINITY, 1.0] {
+            rays.push(Vec3::new(x, 0.25, 0.0), Vec3::new(dx, 0.0, 1.0), t_max);
+            rays.push(Vec3::new(x, 0.25, 0.0), Vec3::new(dx, -0.0, 1.0), t_max);
+        }
+    }
+    // A ray a normal component away from the edge still hits.
+    rays.push(
+        Vec3::new(-1e-30, 0.25, 0.0),
+        Vec3::new(1e-29, 0.0, 1.0),
+        f32::INFINITY,
+    );
+    // Hits: the eight rays starting on the edge plane or 1e-44 inside it,
+    // and the last one; the eight starting 1e-44 outside miss.
+    assert_eq!(compare(&g, &rays), Ok(9));
+}

@@ -332,7 +332,8 @@ impl Bvh {
     /// A ray hits at `t ∈ [0, t_max]` (both ends included; surfaces
     /// touched exactly at an edge or vertex count). Rays with a zero or
     /// non-finite direction, a non-finite origin, or `t_max` < 0 or NaN
-    /// never hit. Spheres report the nearest root in range (the far one
+    /// never hit; direction components below f32's normal range count as
+    /// zeros. Spheres report the nearest root in range (the far one
     /// when the origin is inside).
     pub fn intersect(
         &self,
@@ -462,7 +463,7 @@ impl Bvh {
                     work.nodes = 1;
                 } else {
                     let o = rays.origin(i);
-                    let d = rays.direction(i);
+                    let d = traverse::flush_subnormal(rays.direction(i));
                     let t_max = rays.t_max[i];
                     occluded[i] = match (&scene, &cull) {
                         (Some(scene), Some(cull)) => traverse::any(
@@ -615,7 +616,8 @@ impl ClosestBatch<'_> {
             if candidates & (1 << (i - start)) == 0 {
                 work.nodes = 1;
             } else {
-                let (o, d, t_max) = (rays.origin(i), rays.direction(i), rays.t_max[i]);
+                let d = traverse::flush_subnormal(rays.direction(i));
+                let (o, t_max) = (rays.origin(i), rays.t_max[i]);
                 let c = match (scene, &cull) {
                     (Some(scene), Some(cull)) => {
                         traverse::closest(scene, stack, (cull, i - start), (o, d, t_max), &mut work)

@@ -284,17 +284,34 @@ pub(crate) struct Ray8Src<'a> {
 
 impl Ray8Src<'_> {
     /// Origins and directions of rays `start..start + WIDTH`, per axis
-    /// (zeros past the batch's end).
+    /// (zeros past the batch's end; directions through [`flush_subnormal`]).
     #[inline(always)]
     pub fn lanes(&self, start: usize) -> ([Lanes; 3], [Lanes; 3]) {
         let end = (start + WIDTH).min(self.t_max.len());
         let load = |v: &[f32]| crate::lanes::load(&v[..end], start);
         let (o, d) = (self.org, self.dir);
+        let flush = |d: Lanes| {
+            d.abs()
+                .simd_lt(Lanes::splat(f32::MIN_POSITIVE))
+                .select(d * Lanes::ZERO, d)
+        };
         (
             [load(o[0]), load(o[1]), load(o[2])],
-            [load(d[0]), load(d[1]), load(d[2])],
+            [flush(load(d[0])), flush(load(d[1])), flush(load(d[2]))],
         )
     }
+}
+
+/// A direction with its subnormal components made zeros (of the same
+/// sign), as every query reads directions: their reciprocals overflow, so
+/// the box test would take the ray for parallel to that axis while the
+/// triangle test, from the direction itself, does not, and a ray crossing
+/// a box face within ~1e-38 of a plane missed a hit that brute force
+/// found. A component that small moves a ray by less than anything f32
+/// coordinates can show.
+#[inline(always)]
+pub(crate) fn flush_subnormal(d: Vec3) -> Vec3 {
+    Vec3::select(d.abs().cmplt(Vec3::splat(f32::MIN_POSITIVE)), d * 0.0, d)
 }
 
 /// Rays that cannot hit anything: a direction that is zero or subnormal
