@@ -1085,6 +1085,19 @@ fn slivers_agree_with_brute_force_and_release_their_shadow_rays() {
         rays.push(eye, (target - eye).normalize(), f32::INFINITY);
     }
     compare(&covered, &rays).unwrap();
+    // And the answer itself: the lid, 5e-5 above the fan, is what every
+    // ray meets first.
+    let mut hits = Hits::default();
+    Bvh::build(&covered, Accel::None).intersect(
+        &rays,
+        &mut hits,
+        &mut TraversalStats::default(),
+        None,
+    );
+    assert!(
+        hits.prim.iter().all(|&p| p == n || p == n + 1),
+        "a ray went under the lid"
+    );
 
     let floor = geometry(positions.clone(), fan.clone(), Vec::new());
     let light = Vec3::new(0.0, 3.0, 0.0);

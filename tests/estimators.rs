@@ -635,7 +635,8 @@ fn adaptive_and_fixed_sampling_agree() {
         adaptive.samples
     );
     // The same 0.5% slack: one sample too few here (+1/96 on every
-    // pixel, all of which stop at the first test) fails.
+    // pixel, all of which stop at the first test) fails with room to
+    // spare (it was within a tenth of the 1% slack this half had).
     let est = channel(&adaptive, 1);
     assert_unbiased("furnace, adaptive", &est, &vec![expected; est.len()], 5e-3);
 }

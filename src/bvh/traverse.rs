@@ -303,12 +303,14 @@ impl Ray8Src<'_> {
 }
 
 /// A direction with its subnormal components made zeros (of the same
-/// sign), as every query reads directions: their reciprocals overflow, so
-/// the box test would take the ray for parallel to that axis while the
-/// triangle test, from the direction itself, does not, and a ray crossing
-/// a box face within ~1e-38 of a plane missed a hit that brute force
-/// found. A component that small moves a ray by less than anything f32
-/// coordinates can show.
+/// sign), as every query reads directions. Below ~2.9e-39 their
+/// reciprocals overflow, so the box test took the ray for parallel to that
+/// axis while the triangle test, from the direction itself, did not, and a
+/// ray crossing a box face within ~1e-38 of a plane missed a hit that
+/// brute force found; the whole subnormal range is flushed, the rule the
+/// API documents. (For a direction with a normal component of ordinary
+/// size this moves the ray by nothing f32 coordinates can show; a
+/// direction wholly near the subnormal range may turn.)
 #[inline(always)]
 pub(crate) fn flush_subnormal(d: Vec3) -> Vec3 {
     Vec3::select(d.abs().cmplt(Vec3::splat(f32::MIN_POSITIVE)), d * 0.0, d)

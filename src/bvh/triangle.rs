@@ -417,7 +417,7 @@ const ILL_CONDITIONED: f32 = 4.0;
 /// The distance along the ray to the plane of each lane's triangle in
 /// `lanes`, in f64 (arguments as for [`test_pairs`]): with the direction
 /// (sx, sy, 1)/sz in the permuted frame and n = (B − A) × (C − A),
-/// t = sz · n·(A − o) / n·(sx, sy, 1).
+/// t = sz · n·(A − o) / n·(sx, sy, 1), kept within the vertices' depths.
 #[cold]
 #[inline(never)]
 fn plane_distance_f64(
@@ -440,7 +440,18 @@ fn plane_distance_f64(
         let (a, b, c, o) = (point(&a), point(&b), point(&c), point(&o));
         let n = (b - a).cross(c - a);
         let toward = DVec3::new(f64::from(s[0][i]), f64::from(s[1][i]), 1.0);
-        out[i] = (f64::from(s[2][i]) * n.dot(a - o) / n.dot(toward)) as f32;
+        let sz = f64::from(s[2][i]);
+        let plane = sz * n.dot(a - o) / n.dot(toward);
+        // Within the vertices' depths, as the weighted form always is: a
+        // lane the f32 test let in by a rounding, on a triangle seen
+        // edge-on, could meet the plane far away (or never, n·d = 0: NaN
+        // takes the near bound).
+        let depth = |v: DVec3| sz * (v.z - o.z);
+        let (near, far) = (
+            depth(a).min(depth(b)).min(depth(c)),
+            depth(a).max(depth(b)).max(depth(c)),
+        );
+        out[i] = plane.max(near).min(far) as f32;
     }
     *t = TriLanes::from(out);
 }

@@ -24,8 +24,10 @@
 //! * `-m k` (bounces) is Mitsuba's `max_depth` k + 1, and roulette starts
 //!   where wavepath's does (`rr_depth` = [`ROULETTE_DEPTH`] + 1, Mitsuba
 //!   counting depth from 1), though with Mitsuba's continuation rule; the
-//!   film uses a box filter and the camera wavepath's near and far
-//!   planes.
+//!   film uses a box filter and wavepath's near and far clipping
+//!   distances (Mitsuba clips at planes along the view axis, wavepath at
+//!   those distances along each ray, so geometry near `zfar` off the
+//!   image's centre can differ).
 //! * Vertex normals that vanish (opposite faces cancelling) are replaced
 //!   by the face's normal, which is what wavepath shades with there.
 

@@ -129,8 +129,9 @@ impl Camera {
     /// `zfar` of 1000 can lie wholly beyond it and render black. Camera
     /// rays end at distance `zfar` from the eye (the clipping "plane" is
     /// a sphere about it, as in the reference), so the box's nearest
-    /// point and farthest corner are measured by distance (a sphere's box
-    /// reaches a little further than the sphere).
+    /// point and its farthest corner ahead of the eye are measured by
+    /// distance (a sphere's box reaches a little further than the sphere;
+    /// corners behind the eye, which no camera ray reaches, do not count).
     pub fn far_plane_cuts(&self, min: Vec3, max: Vec3) -> Option<String> {
         if !min.cmple(max).all() {
             return None;
@@ -138,15 +139,17 @@ impl Camera {
         let eye = self.position.as_dvec3();
         let (min, max) = (min.as_dvec3(), max.as_dvec3());
         let near = (eye.clamp(min, max) - eye).length();
+        let forward = (-self.camera_to_world.z_axis).as_dvec3();
         let far = (0..8)
             .map(|k| {
-                let corner = glam::DVec3::new(
+                glam::DVec3::new(
                     if k & 1 == 0 { min.x } else { max.x },
                     if k & 2 == 0 { min.y } else { max.y },
                     if k & 4 == 0 { min.z } else { max.z },
-                );
-                (corner - eye).length()
+                ) - eye
             })
+            .filter(|to_corner| to_corner.dot(forward) > 0.0)
+            .map(|to_corner| to_corner.length())
             .fold(0.0, f64::max);
         let zfar = self.zfar;
         if near > f64::from(zfar) {
@@ -257,6 +260,37 @@ mod tests {
             fitted(optics(Some(90.0), Some(30.0), None)),
             (90.0, 73.7398)
         ));
+    }
+
+    /// The far clipping distance is measured along rays, from the eye: a
+    /// box wholly within it says nothing, one whose far corners ahead lie
+    /// past it is partly cut, one whose nearest point lies past it wholly;
+    /// corners behind the eye, which no camera ray reaches, do not count.
+    #[test]
+    fn the_far_plane_is_a_distance_from_the_eye_ahead_of_it() {
+        let camera = Camera {
+            position: Vec3::ZERO,
+            target: Vec3::NEG_Z,
+            camera_to_world: Mat3::IDENTITY,
+            screen_distance: 500.0,
+            znear: 0.1,
+            zfar: 150.0,
+        };
+        let cuts = |min: Vec3, max: Vec3| camera.far_plane_cuts(min, max);
+        // Ahead, 100 deep and 200 wide: its far corners are 173 away,
+        // though no farther than 100 along the view axis.
+        let ahead = cuts(
+            Vec3::new(-100.0, -100.0, -100.0),
+            Vec3::new(100.0, 100.0, -1.0),
+        );
+        assert!(ahead.is_some_and(|w| w.starts_with("part of the scene")));
+        // Around the eye, mostly behind it: the corners ahead are 142
+        // away; those behind, 173, are never seen.
+        let around = Vec3::new(100.0, 100.0, 100.0);
+        assert_eq!(cuts(Vec3::new(-100.0, -100.0, -10.0), around), None);
+        // Wholly beyond: its nearest point is 160 away.
+        let beyond = cuts(Vec3::new(-1.0, -1.0, -200.0), Vec3::new(1.0, 1.0, -160.0));
+        assert!(beyond.is_some_and(|w| w.starts_with("the whole scene")));
     }
 
     /// The camera backs off 1.5 diagonals from the scene's centre, or one
