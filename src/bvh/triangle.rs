@@ -291,12 +291,27 @@ pub(crate) struct GroupHit {
 /// crosses its triangle at `t` in `[0, t_far]`.
 #[inline(always)]
 pub(crate) fn intersect_group(g: &TriGroup, r: &RayTri, t_far: f32) -> GroupHit {
-    test_pairs(
+    test_pairs::<true>(
         |vertex, axis| g.v[vertex][r.k[axis]],
         r.o.map(TriLanes::splat),
         r.s.map(TriLanes::splat),
         TriLanes::splat(t_far),
     )
+}
+
+/// Whether the ray crosses any triangle of `g` at `t` in `[0, t_max]`:
+/// [`intersect_group`]'s answer, with hits' distances made exact only
+/// where that answer could turn on them.
+#[inline(always)]
+pub(crate) fn occludes_group(g: &TriGroup, r: &RayTri, t_max: f32) -> bool {
+    test_pairs::<false>(
+        |vertex, axis| g.v[vertex][r.k[axis]],
+        r.o.map(TriLanes::splat),
+        r.s.map(TriLanes::splat),
+        TriLanes::splat(t_max),
+    )
+    .mask
+        != 0
 }
 
 /// Tests triangle `lane` of `g` against the rays of a packet that share
@@ -310,7 +325,7 @@ pub(crate) fn intersect_rays(
     rays: &RayTriPacket,
     t_far: Lanes,
 ) -> GroupHit {
-    test_pairs(
+    test_pairs::<true>(
         |vertex, axis| TriLanes::splat(g.v[vertex][rays.k[axis]].as_array()[lane]),
         rays.o,
         rays.s,
@@ -322,49 +337,33 @@ pub(crate) fn intersect_rays(
 /// lane: `p(vertex, axis)` gives each lane's triangle vertex along its
 /// ray's permuted axis (0, 1, 2 = kx, ky, kz), `o` and `s` the ray's
 /// permuted origin and shear (see [`RayTri`]), `t_far` the end of the ray.
+/// With `EXACT_T` every hit's `t` is as exact as the conditioning check
+/// below makes it; without (any-hit), only those whose place inside or
+/// outside `[0, t_far]` the f32 distance's error could change.
 #[inline(always)]
-fn test_pairs(
+fn test_pairs<const EXACT_T: bool>(
     p: impl Fn(usize, usize) -> TriLanes,
-    [ox, oy, oz]: [TriLanes; 3],
-    [sx, sy, sz]: [TriLanes; 3],
+    o: [TriLanes; 3],
+    s: [TriLanes; 3],
     t_far: TriLanes,
 ) -> GroupHit {
-    // Vertices relative to the origin, then sheared so the ray is +z.
-    let az = p(0, 2) - oz;
-    let bz = p(1, 2) - oz;
-    let cz = p(2, 2) - oz;
-    // Fused: safe for watertightness here, not below (module docs).
-    let ax = sx.mul_neg_add(az, p(0, 0) - ox);
-    let ay = sy.mul_neg_add(az, p(0, 1) - oy);
-    let bx = sx.mul_neg_add(bz, p(1, 0) - ox);
-    let by = sy.mul_neg_add(bz, p(1, 1) - oy);
-    let cx = sx.mul_neg_add(cz, p(2, 0) - ox);
-    let cy = sy.mul_neg_add(cz, p(2, 1) - oy);
-
-    // The edge functions' products, kept apart to bound their rounding
-    // below (the same multiplications either way).
-    let (cxby, cybx) = (cx * by, cy * bx);
-    let (axcy, aycx) = (ax * cy, ay * cx);
-    let (bxay, byax) = (bx * ay, by * ax);
-    let mut u = cxby - cybx;
-    let mut v = axcy - aycx;
-    let mut w = bxay - byax;
-    // Lanes whose edge functions are ill-conditioned (see below), found
-    // here so that the products need not be kept: for a hit, where the
-    // three agree in sign, |u| + |v| + |w| is |det|.
-    let magnitude =
-        (cxby.abs() + cybx.abs()) + (axcy.abs() + aycx.abs()) + (bxay.abs() + byax.abs());
-    let size = u.abs() + v.abs() + w.abs();
-    let ill_conditioned = magnitude
-        .simd_gt(size * TriLanes::splat(ILL_CONDITIONED))
-        .to_bitmask();
+    let sz = s[2];
+    let sheared = Sheared::new(&p, o, s);
+    let Sheared { az, bz, cz, xy } = sheared;
+    let [ax, ay, bx, by, cx, cy] = xy;
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    // Closest hits: where the edge functions are ill-conditioned (see
+    // below), found now so that nothing more need be kept.
+    let magnitude = EXACT_T.then(|| edge_magnitude(xy));
 
     // Exact zeros: the ray passes (numerically) through an edge or vertex.
     // Redo those lanes in double precision, where the products are exact.
     let zero = TriLanes::ZERO;
     let any_zero = (u.simd_eq(zero) | v.simd_eq(zero) | w.simd_eq(zero)).to_bitmask();
     if any_zero != 0 {
-        refine_edges_f64(any_zero, [ax, ay, bx, by, cx, cy], &mut u, &mut v, &mut w);
+        refine_edges_f64(any_zero, xy, &mut u, &mut v, &mut w);
     }
 
     // Inside iff the three edge functions do not disagree in sign
@@ -395,9 +394,23 @@ fn test_pairs(
     // distance, outside the triangle's own box, so the hierarchy and brute
     // force disagreed, and shadow rays met the surface they left). Those
     // lanes take the distance to the triangle's plane instead, in f64.
-    let ill = inside.to_bitmask() & ill_conditioned;
-    if ill != 0 {
-        plane_distance_f64(ill, &p, [ox, oy, oz], [sx, sy, sz], &mut t);
+    match magnitude {
+        Some(magnitude) => {
+            let ill = inside & magnitude.simd_gt(det.abs() * TriLanes::splat(ILL_CONDITIONED));
+            let ill = ill.to_bitmask();
+            if ill != 0 {
+                plane_distance_f64(ill, &p, o, s, &mut t);
+            }
+        }
+        // Any-hit: only where the answer could turn on the distance.
+        None => settle_occluding_distances(
+            inside.to_bitmask(),
+            &p,
+            &sheared,
+            (o, s),
+            (det, t_far),
+            &mut t,
+        ),
     }
     let ok = inside & t.simd_ge(zero) & t.simd_le(t_far);
     GroupHit {
@@ -406,6 +419,92 @@ fn test_pairs(
         v,
         w,
         det,
+    }
+}
+
+/// A lane group's vertices relative to the ray origins, sheared so that
+/// each ray is its +z axis: the depths `az`, `bz`, `cz` and the 2D
+/// coordinates `[ax, ay, bx, by, cx, cy]`.
+#[derive(Clone, Copy)]
+struct Sheared {
+    az: TriLanes,
+    bz: TriLanes,
+    cz: TriLanes,
+    xy: [TriLanes; 6],
+}
+
+impl Sheared {
+    #[inline(always)]
+    fn new(
+        p: &impl Fn(usize, usize) -> TriLanes,
+        [ox, oy, oz]: [TriLanes; 3],
+        [sx, sy, _]: [TriLanes; 3],
+    ) -> Sheared {
+        let az = p(0, 2) - oz;
+        let bz = p(1, 2) - oz;
+        let cz = p(2, 2) - oz;
+        // Fused: safe for watertightness here, not in the edge functions
+        // (module docs).
+        Sheared {
+            az,
+            bz,
+            cz,
+            xy: [
+                sx.mul_neg_add(az, p(0, 0) - ox),
+                sy.mul_neg_add(az, p(0, 1) - oy),
+                sx.mul_neg_add(bz, p(1, 0) - ox),
+                sy.mul_neg_add(bz, p(1, 1) - oy),
+                sx.mul_neg_add(cz, p(2, 0) - ox),
+                sy.mul_neg_add(cz, p(2, 1) - oy),
+            ],
+        }
+    }
+}
+
+/// The magnitudes of the edge functions' products, Σ |cx·by| + |cy·bx| +
+/// …: their rounding is ε times this.
+#[inline(always)]
+fn edge_magnitude([ax, ay, bx, by, cx, cy]: [TriLanes; 6]) -> TriLanes {
+    ((cx * by).abs() + (cy * bx).abs())
+        + ((ax * cy).abs() + (ay * cx).abs())
+        + ((bx * ay).abs() + (by * ax).abs())
+}
+
+/// Any-hit's distances for the lanes `inside`: those whose edge functions
+/// are ill-conditioned and whose f32 `t` is near enough to either end of
+/// `[0, t_far]` that its error could move it across take the plane
+/// distance. The weights err by at most ~2γ₂·magnitude/|det| in all, so
+/// `t` by that times the largest vertex depth; 16ε times is a generous
+/// bound.
+#[inline(always)]
+fn settle_occluding_distances(
+    inside: u32,
+    p: &impl Fn(usize, usize) -> TriLanes,
+    sheared: &Sheared,
+    (o, s): ([TriLanes; 3], [TriLanes; 3]),
+    (det, t_far): (TriLanes, TriLanes),
+    t: &mut TriLanes,
+) {
+    let magnitude = edge_magnitude(sheared.xy);
+    let ill = inside
+        & magnitude
+            .simd_gt(det.abs() * TriLanes::splat(ILL_CONDITIONED))
+            .to_bitmask();
+    if ill == 0 {
+        return;
+    }
+    let sz = s[2];
+    let depth = (sz * sheared.az)
+        .abs()
+        .max((sz * sheared.bz).abs())
+        .max((sz * sheared.cz).abs());
+    let margin = magnitude / det.abs() * depth * TriLanes::splat(16.0 * f32::EPSILON);
+    let (low, high) = (*t - margin, *t + margin);
+    let zero = TriLanes::ZERO;
+    let sure = (low.simd_gt(zero) & high.simd_lt(t_far)) | high.simd_lt(zero) | low.simd_gt(t_far);
+    let ill = ill & !sure.to_bitmask();
+    if ill != 0 {
+        plane_distance_f64(ill, p, o, s, t);
     }
 }
 
