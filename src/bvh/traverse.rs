@@ -40,7 +40,6 @@ use super::packet::{MAX_RAYS, RayLanes};
 use super::sphere::{PackedSphere, intersect_sphere};
 use super::triangle::{
     GroupHit, PacketTri, RayTri, RayTriLanes, TriGroup, intersect_group, intersect_rays,
-    occludes_group,
 };
 use super::{Lanes, WIDTH};
 use crate::lanes::{from_bits, per_axis, to_bits};
@@ -567,7 +566,7 @@ impl Scene<'_> {
 fn triangles_occlude(groups: &[TriGroup], tri: &RayTri, t_max: f32, work: &mut Work) -> bool {
     for g in groups {
         work.prims += g.len();
-        if occludes_group(g, tri, t_max) {
+        if intersect_group(g, tri, t_max).mask != 0 {
             return true;
         }
     }

@@ -29,12 +29,6 @@
 //! images are then still deterministic, but not bit-identical to an FMA
 //! build's.
 //!
-//! The distance of a hit weighs the vertices' depths by the edge
-//! functions. Where those are ill-conditioned (a sliver, or a triangle
-//! seen edge-on: products far larger than the determinant) the weights can
-//! be far off, so such hits take the distance to the triangle's plane,
-//! computed in f64, instead; which lanes hit is decided as above either way.
-//!
 //! Triangles are stored as [`TriGroup`]s: the three vertices of [`TRI_WIDTH`]
 //! triangles, one SIMD register per vertex coordinate, so a group test is a
 //! straight run of vector arithmetic with no gathers.
@@ -291,27 +285,12 @@ pub(crate) struct GroupHit {
 /// crosses its triangle at `t` in `[0, t_far]`.
 #[inline(always)]
 pub(crate) fn intersect_group(g: &TriGroup, r: &RayTri, t_far: f32) -> GroupHit {
-    test_pairs::<true>(
+    test_pairs(
         |vertex, axis| g.v[vertex][r.k[axis]],
         r.o.map(TriLanes::splat),
         r.s.map(TriLanes::splat),
         TriLanes::splat(t_far),
     )
-}
-
-/// Whether the ray crosses any triangle of `g` at `t` in `[0, t_max]`:
-/// [`intersect_group`]'s answer, with hits' distances made exact only
-/// where that answer could turn on them.
-#[inline(always)]
-pub(crate) fn occludes_group(g: &TriGroup, r: &RayTri, t_max: f32) -> bool {
-    test_pairs::<false>(
-        |vertex, axis| g.v[vertex][r.k[axis]],
-        r.o.map(TriLanes::splat),
-        r.s.map(TriLanes::splat),
-        TriLanes::splat(t_max),
-    )
-    .mask
-        != 0
 }
 
 /// Tests triangle `lane` of `g` against the rays of a packet that share
@@ -325,7 +304,7 @@ pub(crate) fn intersect_rays(
     rays: &RayTriPacket,
     t_far: Lanes,
 ) -> GroupHit {
-    test_pairs::<true>(
+    test_pairs(
         |vertex, axis| TriLanes::splat(g.v[vertex][rays.k[axis]].as_array()[lane]),
         rays.o,
         rays.s,
@@ -337,33 +316,35 @@ pub(crate) fn intersect_rays(
 /// lane: `p(vertex, axis)` gives each lane's triangle vertex along its
 /// ray's permuted axis (0, 1, 2 = kx, ky, kz), `o` and `s` the ray's
 /// permuted origin and shear (see [`RayTri`]), `t_far` the end of the ray.
-/// With `EXACT_T` every hit's `t` is as exact as the conditioning check
-/// below makes it; without (any-hit), only those whose place inside or
-/// outside `[0, t_far]` the f32 distance's error could change.
 #[inline(always)]
-fn test_pairs<const EXACT_T: bool>(
+fn test_pairs(
     p: impl Fn(usize, usize) -> TriLanes,
-    o: [TriLanes; 3],
-    s: [TriLanes; 3],
+    [ox, oy, oz]: [TriLanes; 3],
+    [sx, sy, sz]: [TriLanes; 3],
     t_far: TriLanes,
 ) -> GroupHit {
-    let sz = s[2];
-    let sheared = Sheared::new(&p, o, s);
-    let Sheared { az, bz, cz, xy } = sheared;
-    let [ax, ay, bx, by, cx, cy] = xy;
+    // Vertices relative to the origin, then sheared so the ray is +z.
+    let az = p(0, 2) - oz;
+    let bz = p(1, 2) - oz;
+    let cz = p(2, 2) - oz;
+    // Fused: safe for watertightness here, not below (module docs).
+    let ax = sx.mul_neg_add(az, p(0, 0) - ox);
+    let ay = sy.mul_neg_add(az, p(0, 1) - oy);
+    let bx = sx.mul_neg_add(bz, p(1, 0) - ox);
+    let by = sy.mul_neg_add(bz, p(1, 1) - oy);
+    let cx = sx.mul_neg_add(cz, p(2, 0) - ox);
+    let cy = sy.mul_neg_add(cz, p(2, 1) - oy);
+
     let mut u = cx * by - cy * bx;
     let mut v = ax * cy - ay * cx;
     let mut w = bx * ay - by * ax;
-    // Closest hits: where the edge functions are ill-conditioned (see
-    // below), found now so that nothing more need be kept.
-    let magnitude = EXACT_T.then(|| edge_magnitude(xy));
 
     // Exact zeros: the ray passes (numerically) through an edge or vertex.
     // Redo those lanes in double precision, where the products are exact.
     let zero = TriLanes::ZERO;
     let any_zero = (u.simd_eq(zero) | v.simd_eq(zero) | w.simd_eq(zero)).to_bitmask();
     if any_zero != 0 {
-        refine_edges_f64(any_zero, xy, &mut u, &mut v, &mut w);
+        refine_edges_f64(any_zero, [ax, ay, bx, by, cx, cy], &mut u, &mut v, &mut w);
     }
 
     // Inside iff the three edge functions do not disagree in sign
@@ -386,32 +367,7 @@ fn test_pairs<const EXACT_T: bool>(
         };
     }
     let t_num = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
-    let mut t = t_num / det;
-    // `t` weighs the vertices' depths by the edge functions, whose rounding
-    // is ε times their products' magnitudes. Where those dwarf the
-    // determinant — a sliver, or a triangle seen edge-on — the weights and
-    // so `t` can be far off (a long thin triangle's hit was put at half its
-    // distance, outside the triangle's own box, so the hierarchy and brute
-    // force disagreed, and shadow rays met the surface they left). Those
-    // lanes take the distance to the triangle's plane instead, in f64.
-    match magnitude {
-        Some(magnitude) => {
-            let ill = inside & magnitude.simd_gt(det.abs() * TriLanes::splat(ILL_CONDITIONED));
-            let ill = ill.to_bitmask();
-            if ill != 0 {
-                plane_distance_f64(ill, &p, o, s, &mut t);
-            }
-        }
-        // Any-hit: only where the answer could turn on the distance.
-        None => settle_occluding_distances(
-            inside.to_bitmask(),
-            &p,
-            &sheared,
-            (o, s),
-            (det, t_far),
-            &mut t,
-        ),
-    }
+    let t = t_num / det;
     let ok = inside & t.simd_ge(zero) & t.simd_le(t_far);
     GroupHit {
         mask: ok.to_bitmask(),
@@ -420,139 +376,6 @@ fn test_pairs<const EXACT_T: bool>(
         w,
         det,
     }
-}
-
-/// A lane group's vertices relative to the ray origins, sheared so that
-/// each ray is its +z axis: the depths `az`, `bz`, `cz` and the 2D
-/// coordinates `[ax, ay, bx, by, cx, cy]`.
-#[derive(Clone, Copy)]
-struct Sheared {
-    az: TriLanes,
-    bz: TriLanes,
-    cz: TriLanes,
-    xy: [TriLanes; 6],
-}
-
-impl Sheared {
-    #[inline(always)]
-    fn new(
-        p: &impl Fn(usize, usize) -> TriLanes,
-        [ox, oy, oz]: [TriLanes; 3],
-        [sx, sy, _]: [TriLanes; 3],
-    ) -> Sheared {
-        let az = p(0, 2) - oz;
-        let bz = p(1, 2) - oz;
-        let cz = p(2, 2) - oz;
-        // Fused: safe for watertightness here, not in the edge functions
-        // (module docs).
-        Sheared {
-            az,
-            bz,
-            cz,
-            xy: [
-                sx.mul_neg_add(az, p(0, 0) - ox),
-                sy.mul_neg_add(az, p(0, 1) - oy),
-                sx.mul_neg_add(bz, p(1, 0) - ox),
-                sy.mul_neg_add(bz, p(1, 1) - oy),
-                sx.mul_neg_add(cz, p(2, 0) - ox),
-                sy.mul_neg_add(cz, p(2, 1) - oy),
-            ],
-        }
-    }
-}
-
-/// The magnitudes of the edge functions' products, Σ |cx·by| + |cy·bx| +
-/// …: their rounding is ε times this.
-#[inline(always)]
-fn edge_magnitude([ax, ay, bx, by, cx, cy]: [TriLanes; 6]) -> TriLanes {
-    ((cx * by).abs() + (cy * bx).abs())
-        + ((ax * cy).abs() + (ay * cx).abs())
-        + ((bx * ay).abs() + (by * ax).abs())
-}
-
-/// Any-hit's distances for the lanes `inside`: those whose edge functions
-/// are ill-conditioned and whose f32 `t` is near enough to either end of
-/// `[0, t_far]` that its error could move it across take the plane
-/// distance. The weights err by at most ~2γ₂·magnitude/|det| in all, so
-/// `t` by that times the largest vertex depth; 16ε times is a generous
-/// bound.
-#[inline(always)]
-fn settle_occluding_distances(
-    inside: u32,
-    p: &impl Fn(usize, usize) -> TriLanes,
-    sheared: &Sheared,
-    (o, s): ([TriLanes; 3], [TriLanes; 3]),
-    (det, t_far): (TriLanes, TriLanes),
-    t: &mut TriLanes,
-) {
-    let magnitude = edge_magnitude(sheared.xy);
-    let ill = inside
-        & magnitude
-            .simd_gt(det.abs() * TriLanes::splat(ILL_CONDITIONED))
-            .to_bitmask();
-    if ill == 0 {
-        return;
-    }
-    let sz = s[2];
-    let depth = (sz * sheared.az)
-        .abs()
-        .max((sz * sheared.bz).abs())
-        .max((sz * sheared.cz).abs());
-    let margin = magnitude / det.abs() * depth * TriLanes::splat(16.0 * f32::EPSILON);
-    let (low, high) = (*t - margin, *t + margin);
-    let zero = TriLanes::ZERO;
-    let sure = (low.simd_gt(zero) & high.simd_lt(t_far)) | high.simd_lt(zero) | low.simd_gt(t_far);
-    let ill = ill & !sure.to_bitmask();
-    if ill != 0 {
-        plane_distance_f64(ill, p, o, s, t);
-    }
-}
-
-/// How much larger than the determinant the edge functions' products may
-/// be before [`test_pairs`] measures a hit's distance from the plane: a
-/// well-shaped triangle seen face-on keeps them within a few times it.
-const ILL_CONDITIONED: f32 = 4.0;
-
-/// The distance along the ray to the plane of each lane's triangle in
-/// `lanes`, in f64 (arguments as for [`test_pairs`]): with the direction
-/// (sx, sy, 1)/sz in the permuted frame and n = (B − A) × (C − A),
-/// t = sz · n·(A − o) / n·(sx, sy, 1), kept within the vertices' depths.
-#[cold]
-#[inline(never)]
-fn plane_distance_f64(
-    lanes: u32,
-    p: &impl Fn(usize, usize) -> TriLanes,
-    o: [TriLanes; 3],
-    s: [TriLanes; 3],
-    t: &mut TriLanes,
-) {
-    use glam::DVec3;
-    let vertex = |k: usize| [0, 1, 2].map(|axis| p(k, axis).to_array());
-    let (a, b, c) = (vertex(0), vertex(1), vertex(2));
-    let (o, s) = (o.map(TriLanes::to_array), s.map(TriLanes::to_array));
-    let mut out = t.to_array();
-    let mut bits = lanes;
-    while bits != 0 {
-        let i = bits.trailing_zeros() as usize;
-        bits &= bits - 1;
-        let point = |v: &[[f32; TRI_WIDTH]; 3]| DVec3::from_array(v.map(|x| f64::from(x[i])));
-        let (a, b, c, o) = (point(&a), point(&b), point(&c), point(&o));
-        let n = (b - a).cross(c - a);
-        let toward = DVec3::new(f64::from(s[0][i]), f64::from(s[1][i]), 1.0);
-        let sz = f64::from(s[2][i]);
-        let plane = sz * n.dot(a - o) / n.dot(toward);
-        // Within the vertices' depths, as the weighted form always is: a
-        // lane the f32 test let in by a rounding, on a triangle seen
-        // edge-on, could meet the plane far away (or never, n·d = 0: NaN
-        // takes the near bound).
-        let depth = |v: DVec3| sz * (v.z - o.z);
-        let (near, far) = (
-            depth(a).min(depth(b)).min(depth(c)),
-            depth(a).max(depth(b)).max(depth(c)),
-        );
-        out[i] = plane.max(near).min(far) as f32;
-    }
-    *t = TriLanes::from(out);
 }
 
 /// Recomputes the edge functions of the lanes in `lanes` in f64.
