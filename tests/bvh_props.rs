@@ -1053,18 +1053,14 @@ fn rays_offset_from_a_surface_by_its_reach_leave_it() {
 /// their broad end, meeting at one apex, flat on y = 0. Where the edge
 /// functions' products dwarf a sliver's determinant, the distance weighed
 /// from them is far off (half the true one, outside the triangle's own
-/// box). Camera-like rays under a lid 5e-5 above the fan should agree
-/// with brute force in every structure, and shadow rays leaving points
-/// of the fan (offset by its reach, as the renderer offsets them) toward
-/// a light above it should agree too and meet nothing: the fan lies
-/// wholly below them.
-///
-/// A known bug, ignored until fixed: the shadow-ray half fails. A fix
-/// that took such hits' distance from the triangle's plane in f64 passed
-/// it but made maxplanck's shadow rays 24% slower (PERF.md, BVH, sixth
-/// session of 2026-11-27), so it was not kept.
+/// box). Camera-like rays under a lid 5e-5 above the fan agree with brute
+/// force in every structure, and shadow rays leaving points of the fan
+/// (offset by its reach, as the renderer offsets them) toward a light
+/// above it agree too and meet nothing: the fan lies wholly below them.
+/// Without the slivers' distances taken from the plane in f64, the
+/// shadow rays met the fan.
 #[test]
-#[ignore = "known bug: slivers' hit distances (PERF.md, BVH, sixth session of 2026-11-27)"]
+
 fn slivers_agree_with_brute_force_and_release_their_shadow_rays() {
     let n = 100u32;
     let mut positions = vec![Vec3::new(0.0, 0.0, -8.0)];

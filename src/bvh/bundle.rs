@@ -127,7 +127,7 @@ fn push_entered(
 /// Any-hit test of the bundle's `active` rays (each up to its `t_max`);
 /// returns the mask of occluded rays. `work` receives the primitives each
 /// ray tested, `visits` the node visits summed over rays.
-pub(crate) fn any(
+pub(crate) fn any<const WALK: u8>(
     scene: &Scene,
     stack: &mut BundleStack,
     bundle: &Bundle,
@@ -155,7 +155,7 @@ pub(crate) fn any(
         } else {
             for i in each(rays) {
                 let ray = (bundle.org[i], bundle.dir[i], t_max[i]);
-                if scene.leaf_occludes(child, ray, &bundle.ray_tri(i), &mut work[i]) {
+                if scene.leaf_occludes::<WALK>(child, ray, &bundle.ray_tri(i), &mut work[i]) {
                     open &= !(1 << i);
                 }
             }

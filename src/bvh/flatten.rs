@@ -504,7 +504,6 @@ mod tests {
     use super::*;
     use crate::bvh::build::{self, BuildParams};
     use crate::bvh::collapse::{C_NODE, C_PRIM};
-    use crate::ray::NO_HIT;
     use crate::sampling::rng::{hash32, to_unit_float};
     use crate::scene::{Aabb, Spheres, Triangles};
     use glam::Vec3;
@@ -599,7 +598,7 @@ mod tests {
                     }
                 } else {
                     let groups = &flat.tri_groups[items];
-                    for id in groups.iter().flat_map(|g| g.id).filter(|&id| id != NO_HIT) {
+                    for id in groups.iter().flat_map(TriGroup::prims) {
                         seen[id as usize] += 1;
                     }
                 }
@@ -723,11 +722,7 @@ mod tests {
             let holds_wall = (0..WIDTH).any(|slot| {
                 let c = root_node.child[slot];
                 c.is_leaf() && !c.is_sphere() && c.count() == 1 && {
-                    let mut got: Vec<u32> = flat.tri_groups[c.index()]
-                        .id
-                        .into_iter()
-                        .filter(|&id| id != NO_HIT)
-                        .collect();
+                    let mut got: Vec<u32> = flat.tri_groups[c.index()].prims().collect();
                     got.sort();
                     got == ids
                 }

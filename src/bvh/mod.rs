@@ -218,6 +218,9 @@ pub struct Bvh {
     depth: usize,
     triangle_count: usize,
     sphere_count: usize,
+    /// Whether any triangle is a sliver (`TriGroup::slivers`): only then
+    /// do the walks check their hits for them.
+    slivers: bool,
 }
 
 impl Bvh {
@@ -236,6 +239,7 @@ impl Bvh {
             depth: 0,
             triangle_count: tri_count,
             sphere_count,
+            slivers: false,
         };
         if accel == Accel::None {
             let ids: Vec<u32> = (0..tri_count as u32).collect();
@@ -247,6 +251,7 @@ impl Bvh {
                     id: (tri_count + i) as u32,
                 })
                 .collect();
+            bvh.slivers = bvh.tri_groups.iter().any(TriGroup::has_slivers);
             return bvh;
         }
 
@@ -285,6 +290,7 @@ impl Bvh {
         bvh.spheres = flat.spheres;
         bvh.root = flat.root;
         bvh.depth = flat.depth;
+        bvh.slivers = bvh.tri_groups.iter().any(TriGroup::has_slivers);
         if let Some(root) = root {
             let b = root.bounds();
             bvh.bounds = [b.min.to_array(), b.max.to_array()];
@@ -342,6 +348,23 @@ impl Bvh {
         stats: &mut TraversalStats,
         cost: Option<&mut [u32]>,
     ) {
+        if self.slivers {
+            self.intersect_walk::<{ traverse::FAST }>(rays, hits, stats, cost);
+        } else {
+            self.intersect_walk::<{ traverse::PLAIN }>(rays, hits, stats, cost);
+        }
+    }
+
+    /// [`intersect`](Self::intersect), walking as `WALK` says
+    /// (`traverse::PLAIN` or `FAST`).
+    #[inline(never)]
+    fn intersect_walk<const WALK: u8>(
+        &self,
+        rays: &Rays,
+        hits: &mut Hits,
+        stats: &mut TraversalStats,
+        cost: Option<&mut [u32]>,
+    ) {
         let n = rays.len();
         hits.reset(n);
         let scene = self.scene();
@@ -391,7 +414,7 @@ impl Bvh {
                         packet::Packet::<wide::f32x16>::new(&src, start, &[c0, c1])
                 {
                     let mut stack = std::mem::take(&mut batch.wide_packet_stack);
-                    batch.trace_packet(hierarchy, &mut stack, &packet, active, start);
+                    batch.trace_packet::<_, WALK>(hierarchy, &mut stack, &packet, active, start);
                     batch.wide_packet_stack = stack;
                     start = next + WIDTH;
                     continue;
@@ -399,7 +422,7 @@ impl Bvh {
                     carried = Some(second);
                 }
             }
-            batch.trace_slot(&scene, &src, start, first);
+            batch.trace_slot::<WALK>(&scene, &src, start, first);
             start = next;
             if next_misses {
                 batch.miss_slot(start);
@@ -414,6 +437,21 @@ impl Bvh {
     /// Whether anything is hit in `[0, t_max]`, for every ray of the batch
     /// (stops at the first hit found). `occluded` is resized to `rays.len()`.
     pub fn occluded(&self, rays: &Rays, occluded: &mut Vec<bool>, stats: &mut TraversalStats) {
+        if self.slivers {
+            self.occluded_walk::<{ traverse::FAST }>(rays, occluded, stats);
+        } else {
+            self.occluded_walk::<{ traverse::PLAIN }>(rays, occluded, stats);
+        }
+    }
+
+    /// [`occluded`](Self::occluded), walking as `WALK` says.
+    #[inline(never)]
+    fn occluded_walk<const WALK: u8>(
+        &self,
+        rays: &Rays,
+        occluded: &mut Vec<bool>,
+        stats: &mut TraversalStats,
+    ) {
         let n = rays.len();
         occluded.clear();
         occluded.resize(n, false);
@@ -440,7 +478,7 @@ impl Bvh {
                 });
                 let mut work = [traverse::Work::default(); WIDTH];
                 let mut visits = 0;
-                let hit = bundle::any(
+                let hit = bundle::any::<WALK>(
                     scene,
                     &mut bundle_stack,
                     &bundle,
@@ -452,7 +490,25 @@ impl Bvh {
                 for (lane, o) in occluded[start..end].iter_mut().enumerate() {
                     *o = hit & (1 << lane) != 0;
                 }
+                // Rays that met slivers and nothing else: walked again,
+                // carefully (traverse::group_closest).
+                for lane in crate::lanes::each(c.mask & !hit) {
+                    if WALK != traverse::PLAIN && work[lane].unsure {
+                        let i = start + lane;
+                        let ray = (rays.origin(i), traverse::flush_subnormal(rays.direction(i)));
+                        let mut again = traverse::Work::default();
+                        occluded[i] = traverse::any_careful(
+                            scene,
+                            &mut stack,
+                            (c, lane),
+                            (ray.0, ray.1, rays.t_max[i]),
+                            &mut again,
+                        );
+                        work[lane].add(again);
+                    }
+                }
                 nodes += slot_nodes(visits, candidates, end - start);
+                nodes += work.iter().map(|w| w.nodes as u64).sum::<u64>();
                 prims += work.iter().map(|w| w.prims as u64).sum::<u64>();
                 continue;
             }
@@ -466,21 +522,30 @@ impl Bvh {
                     let d = traverse::flush_subnormal(rays.direction(i));
                     let t_max = rays.t_max[i];
                     occluded[i] = match (&scene, &cull) {
-                        (Some(scene), Some(cull)) => traverse::any(
-                            scene,
-                            &mut stack,
-                            (cull, i - start),
-                            (o, d, t_max),
-                            &mut work,
-                        ),
-                        _ => traverse::any_brute(
-                            &self.tri_groups,
-                            &self.spheres,
-                            o,
-                            d,
-                            t_max,
-                            &mut work,
-                        ),
+                        (Some(scene), Some(cull)) => {
+                            let ray = (o, d, t_max);
+                            let lane = (cull, i - start);
+                            traverse::any::<WALK>(scene, &mut stack, lane, ray, &mut work)
+                                || WALK != traverse::PLAIN && work.unsure && {
+                                    let mut again = traverse::Work::default();
+                                    let hit = traverse::any_careful(
+                                        scene, &mut stack, lane, ray, &mut again,
+                                    );
+                                    work.add(again);
+                                    hit
+                                }
+                        }
+                        _ => {
+                            let mut brute = traverse::Work::default();
+                            let hit = traverse::any_brute(
+                                &self.tri_groups,
+                                &self.spheres,
+                                (o, d, t_max),
+                                &mut brute,
+                            );
+                            work.add(brute);
+                            hit
+                        }
                     };
                 }
                 nodes += work.nodes as u64;
@@ -589,7 +654,7 @@ impl ClosestBatch<'_> {
     /// per-ray costs asked for, two or more rays, one octant), else ray
     /// by ray.
     #[inline(always)]
-    fn trace_slot(
+    fn trace_slot<const WALK: u8>(
         &mut self,
         scene: &Option<traverse::Scene>,
         src: &traverse::Ray8Src,
@@ -604,7 +669,7 @@ impl ClosestBatch<'_> {
             && let Some((packet, active)) = packet::Packet::<Lanes>::new(src, start, &[c])
         {
             let mut stack = std::mem::take(&mut self.packet_stack);
-            self.trace_packet(scene, &mut stack, &packet, active, start);
+            self.trace_packet::<_, WALK>(scene, &mut stack, &packet, active, start);
             self.packet_stack = stack;
             return;
         }
@@ -620,16 +685,29 @@ impl ClosestBatch<'_> {
                 let (o, t_max) = (rays.origin(i), rays.t_max[i]);
                 let c = match (scene, &cull) {
                     (Some(scene), Some(cull)) => {
-                        traverse::closest(scene, stack, (cull, i - start), (o, d, t_max), &mut work)
+                        let (lane, ray) = ((cull, i - start), (o, d, t_max));
+                        let fast = traverse::closest::<WALK>(scene, stack, lane, ray, &mut work);
+                        if WALK != traverse::PLAIN && work.unsure {
+                            // It met slivers (traverse::group_closest).
+                            let mut again = traverse::Work::default();
+                            let c = traverse::closest_careful(scene, stack, lane, ray, &mut again);
+                            work.add(again);
+                            c
+                        } else {
+                            fast
+                        }
                     }
-                    _ => traverse::closest_brute(
-                        &self.bvh.tri_groups,
-                        &self.bvh.spheres,
-                        o,
-                        d,
-                        t_max,
-                        &mut work,
-                    ),
+                    _ => {
+                        let mut brute = traverse::Work::default();
+                        let c = traverse::closest_brute(
+                            &self.bvh.tri_groups,
+                            &self.bvh.spheres,
+                            (o, d, t_max),
+                            &mut brute,
+                        );
+                        work.add(brute);
+                        c
+                    }
                 };
                 hits.record(i, &c);
             }
@@ -646,7 +724,7 @@ impl ClosestBatch<'_> {
     /// Traces `packet`: the rays `active` of the `L::SLOTS` batch slots
     /// from `start`, which are the rays their culls let through.
     #[inline(always)]
-    fn trace_packet<L: packet::RayLanes>(
+    fn trace_packet<L: packet::RayLanes, const WALK: u8>(
         &mut self,
         scene: &traverse::Scene,
         stack: &mut packet::PacketStack<L>,
@@ -655,10 +733,11 @@ impl ClosestBatch<'_> {
         start: usize,
     ) {
         let end = (start + L::SLOTS * WIDTH).min(self.rays.len());
-        let mut best = traverse::ClosestLanes::none(&self.rays.t_max[start..end]);
+        let t_max = &self.rays.t_max[start..end];
+        let mut best = traverse::ClosestLanes::none(t_max);
         let mut work = traverse::Work::default();
         let mut visits = 0;
-        packet::closest(
+        packet::closest::<L, WALK>(
             scene,
             stack,
             packet,
@@ -667,6 +746,21 @@ impl ClosestBatch<'_> {
             &mut work,
             &mut visits,
         );
+        if WALK != traverse::PLAIN && work.unsure {
+            // It met slivers (traverse::group_closest): walked again.
+            best = traverse::ClosestLanes::none(t_max);
+            let mut again = traverse::Work::default();
+            packet::closest_careful(
+                scene,
+                stack,
+                packet,
+                active,
+                &mut best,
+                &mut again,
+                &mut visits,
+            );
+            work.add(again);
+        }
         self.hits.record_lanes(start..end, &best);
         self.nodes += slot_nodes(visits, active, end - start);
         self.prims += u64::from(work.prims);
@@ -766,7 +860,7 @@ mod tests {
             }
             let mut ids: Vec<u32> = bvh.tri_groups[child.index()..child.index() + child.count()]
                 .iter()
-                .flat_map(|g| g.id.into_iter().filter(|&id| id != crate::ray::NO_HIT))
+                .flat_map(TriGroup::prims)
                 .collect();
             ids.sort();
             walls.push(ids);

@@ -35,7 +35,7 @@ use std::ops::{Add, Mul, Sub};
 use glam::Vec3;
 
 use super::flatten::{ChildRef, WideNode};
-use super::traverse::{ClosestLanes, Cull, Ray8Src, Scene, T_FAR_MARGIN, Work, slab_test};
+use super::traverse::{CAREFUL, ClosestLanes, Cull, Ray8Src, Scene, T_FAR_MARGIN, Work, slab_test};
 use super::triangle::PacketTri;
 use super::{Lanes, WIDTH};
 use crate::lanes::per_axis;
@@ -316,7 +316,10 @@ fn descend<L: RayLanes>(
 /// Closest hits of the packet's `active` rays. `best` holds each lane's
 /// initial `t_max` (and no hit) and receives the results; `work` the
 /// primitives tested and `visits` the node visits, both summed over rays.
-pub(crate) fn closest<L: RayLanes>(
+/// `WALK` as for `traverse::group_closest`: a [`FAST`] walk that meets
+/// slivers sets `work.unsure`, and the packet is to be walked again
+/// ([`closest_careful`]).
+pub(crate) fn closest<L: RayLanes, const WALK: u8>(
     scene: &Scene,
     stack: &mut PacketStack<L>,
     packet: &Packet<L>,
@@ -344,14 +347,14 @@ pub(crate) fn closest<L: RayLanes>(
                 for i in crate::lanes::each(mask) {
                     let ray = packet.ray(i);
                     let tri = packet.tri[i / WIDTH].ray(i % WIDTH);
-                    best.narrow(i, |c| scene.leaf_closest(child, ray, &tri, c, work));
+                    best.narrow(i, |c| scene.leaf_closest::<WALK>(child, ray, &tri, c, work));
                 }
             } else {
                 for s in 0..L::SLOTS {
                     let rays = (mask >> (WIDTH * s)) & 0xff;
                     if rays != 0 {
                         let tri = &packet.tri[s];
-                        scene.leaf_closest_packet(child, rays, tri, (best, s), work);
+                        scene.leaf_closest_packet::<WALK>(child, rays, tri, (best, s), work);
                     }
                 }
             }
@@ -370,6 +373,22 @@ pub(crate) fn closest<L: RayLanes>(
             }
         }
     }
+}
+
+/// [`closest`] walked carefully, after a fast walk met slivers. Out of
+/// line, so that the fast walk's code stays as it was.
+#[cold]
+#[inline(never)]
+pub(crate) fn closest_careful<L: RayLanes>(
+    scene: &Scene,
+    stack: &mut PacketStack<L>,
+    packet: &Packet<L>,
+    active: u32,
+    best: &mut ClosestLanes,
+    work: &mut Work,
+    visits: &mut u64,
+) {
+    closest::<L, { CAREFUL }>(scene, stack, packet, active, best, work, visits);
 }
 
 #[cfg(test)]

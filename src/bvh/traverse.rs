@@ -39,7 +39,8 @@ use super::flatten::{ChildRef, WideNode};
 use super::packet::{MAX_RAYS, RayLanes};
 use super::sphere::{PackedSphere, intersect_sphere};
 use super::triangle::{
-    GroupHit, PacketTri, RayTri, RayTriLanes, TriGroup, intersect_group, intersect_rays,
+    GroupHit, PacketTri, RayTri, RayTriLanes, TriGroup, WIDEN, confirm, confirm_rays,
+    intersect_group, intersect_rays,
 };
 use super::{Lanes, WIDTH};
 use crate::lanes::{from_bits, per_axis, to_bits};
@@ -420,7 +421,32 @@ impl ClosestLanes {
 pub(crate) struct Work {
     pub nodes: u32,
     pub prims: u32,
+    /// A [`FAST`] walk met a sliver it could not judge (see
+    /// [`group_closest`]): the ray is to be walked again, [`CAREFUL`]ly.
+    pub unsure: bool,
 }
+
+impl Work {
+    /// Adds the counts of `other` (a second walk of the same ray).
+    #[inline(always)]
+    pub fn add(&mut self, other: Work) {
+        self.nodes += other.nodes;
+        self.prims += other.prims;
+    }
+}
+
+/// How a walk treats hits on slivers ([`TriGroup::slivers`]), the `WALK`
+/// parameter of the traversals: in a scene without slivers, the
+/// triangle test's own distances as they are.
+pub(crate) const PLAIN: u8 = 0;
+/// In a scene with slivers: hits on them are set aside and the ray
+/// flagged ([`Work::unsure`]), to be walked again [`CAREFUL`]ly. The
+/// check costs a few instructions per hit, where confirming in place
+/// (an out-of-line call in the walk's loop, even never taken) made the
+/// whole walk slower.
+pub(crate) const FAST: u8 = 1;
+/// Hits on slivers are confirmed in place ([`confirm`]).
+pub(crate) const CAREFUL: u8 = 2;
 
 /// Traversal stack entry: a child and the distance at which the ray enters it.
 #[derive(Clone, Copy, Default)]
@@ -437,24 +463,51 @@ pub(crate) fn new_stack() -> Stack {
 
 /// Tests a ray against a triangle leaf, narrowing `best`.
 #[inline(always)]
-fn leaf_triangles(groups: &[TriGroup], tri: &RayTri, best: &mut Closest, work: &mut Work) {
+fn leaf_triangles<const WALK: u8>(
+    groups: &[TriGroup],
+    tri: &RayTri,
+    best: &mut Closest,
+    work: &mut Work,
+) {
     for g in groups {
         work.prims += g.len();
-        group_closest(g, tri, best);
+        if group_closest::<WALK>(g, tri, best) {
+            work.unsure = true;
+        }
     }
 }
 
 /// Tests a ray against the triangles of one group, narrowing `best`.
+/// Returns whether hits on slivers were set aside ([`FAST`] walks).
 #[inline(always)]
-fn group_closest(g: &TriGroup, tri: &RayTri, best: &mut Closest) {
-    let h = intersect_group(g, tri, best.t);
+fn group_closest<const WALK: u8>(g: &TriGroup, tri: &RayTri, best: &mut Closest) -> bool {
+    // Widened for slivers, whose distance may move inside (`confirm`).
+    let t_far = if WALK == PLAIN {
+        best.t
+    } else {
+        best.t * WIDEN
+    };
+    let mut h = intersect_group(g, tri, t_far);
     if h.mask == 0 {
-        return;
+        return false;
     }
+    let set_aside = match WALK {
+        PLAIN => 0,
+        FAST => {
+            let slivers = g.slivers() & h.mask;
+            h.mask &= !slivers;
+            slivers
+        }
+        _ => {
+            confirm::<false>(g, tri, &mut h, best.t);
+            0
+        }
+    };
     let t = h.t.to_array();
     for lane in crate::lanes::each(h.mask) {
-        best.offer(t[lane], g.id[lane], &h, lane);
+        best.offer(t[lane], g.id(lane), &h, lane);
     }
+    set_aside != 0
 }
 
 /// Tests a ray against a sphere leaf, narrowing `best`.
@@ -477,9 +530,10 @@ fn leaf_spheres(spheres: &[PackedSphere], o: Vec3, d: Vec3, best: &mut Closest, 
 
 impl Scene<'_> {
     /// Tests one ray against the primitives of `leaf`, narrowing `best`.
-    /// `tri` is the ray's triangle-test setup.
+    /// `tri` is the ray's triangle-test setup; `WALK` as for
+    /// [`group_closest`].
     #[inline(always)]
-    pub fn leaf_closest(
+    pub fn leaf_closest<const WALK: u8>(
         &self,
         leaf: ChildRef,
         (o, d): (Vec3, Vec3),
@@ -491,7 +545,7 @@ impl Scene<'_> {
         if leaf.is_sphere() {
             leaf_spheres(&self.spheres[items], o, d, best, work);
         } else {
-            leaf_triangles(&self.tri_groups[items], tri, best, work);
+            leaf_triangles::<WALK>(&self.tri_groups[items], tri, best, work);
         }
     }
 
@@ -502,9 +556,10 @@ impl Scene<'_> {
     /// ([`PacketTri::Shared`]) and outnumber a group's triangles, the group
     /// is tested triangle by triangle against all rays at once (lanes =
     /// rays), else ray by ray (lanes = triangles); each (ray, triangle)
-    /// pair computes the same values either way.
+    /// pair computes the same values either way. `WALK` as for
+    /// [`group_closest`]: a fast walk sets `work.unsure` for the packet.
     #[inline(never)]
-    pub fn leaf_closest_packet(
+    pub fn leaf_closest_packet<const WALK: u8>(
         &self,
         leaf: ChildRef,
         rays: u32,
@@ -521,21 +576,45 @@ impl Scene<'_> {
                 PacketTri::Shared(packet) if n_rays > len => {
                     let mut t_best = best.t_slot(slot);
                     for lane in 0..len as usize {
-                        let h = intersect_rays(g, lane, packet, t_best);
-                        let hit = h.mask & rays;
-                        if hit == 0 {
+                        let t_far = if WALK == PLAIN {
+                            t_best
+                        } else {
+                            t_best * Lanes::splat(WIDEN)
+                        };
+                        let mut h = intersect_rays(g, lane, packet, t_far);
+                        h.mask &= rays;
+                        if h.mask == 0 {
                             continue;
                         }
+                        match WALK {
+                            PLAIN => {}
+                            FAST => {
+                                if g.slivers() & (1 << lane) != 0 {
+                                    work.unsure = true;
+                                    continue;
+                                }
+                            }
+                            _ => {
+                                if confirm_rays(g, lane, packet, &mut h, t_best) == 0 {
+                                    continue;
+                                }
+                            }
+                        }
+                        let hit = h.mask;
                         let t = h.t.to_array();
                         for i in crate::lanes::each(hit) {
-                            best.narrow(first + i, |c| c.offer(t[i], g.id[lane], &h, i));
+                            best.narrow(first + i, |c| c.offer(t[i], g.id(lane), &h, i));
                         }
                         t_best = best.t_slot(slot);
                     }
                 }
                 _ => {
                     for i in crate::lanes::each(rays) {
-                        best.narrow(first + i, |c| group_closest(g, &tri.ray(i), c));
+                        let mut unsure = false;
+                        best.narrow(first + i, |c| {
+                            unsure = group_closest::<WALK>(g, &tri.ray(i), c);
+                        });
+                        work.unsure |= unsure;
                     }
                 }
             }
@@ -545,7 +624,7 @@ impl Scene<'_> {
     /// Whether one ray hits any primitive of `leaf` within `[0, t_max]`
     /// (stops at the first); `tri` as for [`leaf_closest`](Self::leaf_closest).
     #[inline(always)]
-    pub fn leaf_occludes(
+    pub fn leaf_occludes<const WALK: u8>(
         &self,
         leaf: ChildRef,
         (o, d, t_max): (Vec3, Vec3, f32),
@@ -556,18 +635,45 @@ impl Scene<'_> {
         if leaf.is_sphere() {
             spheres_occlude(&self.spheres[items], o, d, t_max, work)
         } else {
-            triangles_occlude(&self.tri_groups[items], tri, t_max, work)
+            triangles_occlude::<WALK>(&self.tri_groups[items], tri, t_max, work)
         }
     }
 }
 
 /// Whether the ray hits any triangle of `groups` within `[0, t_max]`.
+/// A [`FAST`] walk does not judge hits on slivers: it sets `work.unsure`
+/// instead, as [`group_closest`] does.
 #[inline(always)]
-fn triangles_occlude(groups: &[TriGroup], tri: &RayTri, t_max: f32, work: &mut Work) -> bool {
+fn triangles_occlude<const WALK: u8>(
+    groups: &[TriGroup],
+    tri: &RayTri,
+    t_max: f32,
+    work: &mut Work,
+) -> bool {
+    let t_test = if WALK == PLAIN { t_max } else { t_max * WIDEN };
     for g in groups {
         work.prims += g.len();
-        if intersect_group(g, tri, t_max).mask != 0 {
-            return true;
+        let mut h = intersect_group(g, tri, t_test);
+        if h.mask == 0 {
+            continue;
+        }
+        match WALK {
+            PLAIN => return true,
+            FAST => {
+                let slivers = g.slivers();
+                let within = h.t.simd_le(Lanes::splat(t_max)).to_bitmask();
+                if h.mask & !slivers & within != 0 {
+                    return true;
+                }
+                if h.mask & slivers != 0 {
+                    work.unsure = true;
+                }
+            }
+            _ => {
+                if confirm::<true>(g, tri, &mut h, t_max) != 0 {
+                    return true;
+                }
+            }
         }
     }
     false
@@ -680,7 +786,7 @@ fn push_unordered(node: &WideNode, mask: u32, stack: &mut Stack, sp: &mut usize)
 /// of a batch cull that let it through (its bit is set in `cull.mask`,
 /// so the ray can hit something: see [`never_hits`]).
 #[inline(always)]
-pub(crate) fn closest(
+pub(crate) fn closest<const WALK: u8>(
     scene: &Scene,
     stack: &mut Stack,
     (cull, lane): (&Cull, usize),
@@ -722,7 +828,7 @@ pub(crate) fn closest(
                 }
             };
         }
-        scene.leaf_closest(current, (o, d), &tri, &mut best, work);
+        scene.leaf_closest::<WALK>(current, (o, d), &tri, &mut best, work);
         match pop(stack, &mut sp, best.t) {
             Some(c) => current = c,
             None => return best,
@@ -733,7 +839,7 @@ pub(crate) fn closest(
 /// Whether anything is hit along `o + t·d`, `t ∈ [0, t_max]`, for the ray
 /// in `lane` of a batch cull that let it through (as for [`closest`]).
 #[inline]
-pub(crate) fn any(
+pub(crate) fn any<const WALK: u8>(
     scene: &Scene,
     stack: &mut Stack,
     (cull, lane): (&Cull, usize),
@@ -757,7 +863,7 @@ pub(crate) fn any(
                 current = push_unordered(node, mask, stack, &mut sp);
                 continue;
             }
-        } else if scene.leaf_occludes(current, (o, d, t_max), &tri, work) {
+        } else if scene.leaf_occludes::<WALK>(current, (o, d, t_max), &tri, work) {
             return true;
         }
         if sp == 0 {
@@ -768,13 +874,42 @@ pub(crate) fn any(
     }
 }
 
-/// Brute force closest hit: every primitive, no hierarchy.
+/// [`closest`] walked carefully, for a ray whose fast walk met slivers
+/// ([`group_closest`]). Out of line: inlined beside the fast walk, it
+/// slowed that walk down.
+#[cold]
+#[inline(never)]
+pub(crate) fn closest_careful(
+    scene: &Scene,
+    stack: &mut Stack,
+    lane: (&Cull, usize),
+    ray: (Vec3, Vec3, f32),
+    work: &mut Work,
+) -> Closest {
+    closest::<{ CAREFUL }>(scene, stack, lane, ray, work)
+}
+
+/// [`any`] walked carefully, as [`closest_careful`].
+#[cold]
+#[inline(never)]
+pub(crate) fn any_careful(
+    scene: &Scene,
+    stack: &mut Stack,
+    lane: (&Cull, usize),
+    ray: (Vec3, Vec3, f32),
+    work: &mut Work,
+) -> bool {
+    any::<{ CAREFUL }>(scene, stack, lane, ray, work)
+}
+
+/// Brute force closest hit: every primitive, no hierarchy, hits on
+/// slivers confirmed in place. Out of line, beside the walks that use a
+/// hierarchy.
+#[inline(never)]
 pub(crate) fn closest_brute(
     groups: &[TriGroup],
     spheres: &[PackedSphere],
-    o: Vec3,
-    d: Vec3,
-    t_max: f32,
+    (o, d, t_max): (Vec3, Vec3, f32),
     work: &mut Work,
 ) -> Closest {
     let mut best = Closest::none(t_max);
@@ -782,24 +917,23 @@ pub(crate) fn closest_brute(
         return best;
     }
     let tri = RayTri::new(o, d);
-    leaf_triangles(groups, &tri, &mut best, work);
+    leaf_triangles::<{ CAREFUL }>(groups, &tri, &mut best, work);
     leaf_spheres(spheres, o, d, &mut best, work);
     best
 }
 
-/// Brute force any hit.
+/// Brute force any hit, as [`closest_brute`].
+#[inline(never)]
 pub(crate) fn any_brute(
     groups: &[TriGroup],
     spheres: &[PackedSphere],
-    o: Vec3,
-    d: Vec3,
-    t_max: f32,
+    (o, d, t_max): (Vec3, Vec3, f32),
     work: &mut Work,
 ) -> bool {
     if never_hits(o, d, t_max) {
         return false;
     }
-    triangles_occlude(groups, &RayTri::new(o, d), t_max, work)
+    triangles_occlude::<{ CAREFUL }>(groups, &RayTri::new(o, d), t_max, work)
         || spheres_occlude(spheres, o, d, t_max, work)
 }
 

@@ -29,6 +29,11 @@
 //! images are then still deterministic, but not bit-identical to an FMA
 //! build's.
 //!
+//! On a long thin triangle (a sliver) seen near head-on the distance the
+//! test weighs from its edge functions can be far off, though the inside
+//! verdict stands; such hits take their distance from the triangle's
+//! plane in f64 instead ([`confirm`]), outside the test itself.
+//!
 //! Triangles are stored as [`TriGroup`]s: the three vertices of [`TRI_WIDTH`]
 //! triangles, one SIMD register per vertex coordinate, so a group test is a
 //! straight run of vector arithmetic with no gathers.
@@ -51,28 +56,71 @@ use crate::ray::NO_HIT;
 pub(crate) struct TriGroup {
     /// `v[vertex][axis]`, one lane per triangle.
     pub v: [[TriLanes; 3]; 3],
-    /// Global primitive id per lane.
-    pub id: [u32; TRI_WIDTH],
+    /// Global primitive id per lane, with [`SLIVER`] set on slivers: read
+    /// through [`id`](Self::id) and [`slivers`](Self::slivers).
+    ids: [u32; TRI_WIDTH],
 }
 
+/// The bit of [`TriGroup`]'s ids that marks a sliver: a triangle whose
+/// longest edge squared exceeds [`SLIVER_ASPECT`] times twice its area.
+/// Only on slivers can the watertight test's distance be far off when the
+/// triangle is seen near head-on, which [`confirm`] repairs. (Primitive
+/// ids stay below it: 2³⁰ triangles would take hundreds of GiB.)
+const SLIVER: u32 = 1 << 30;
+
+/// See [`SLIVER`]: 1 for an equilateral triangle, 2 for half a square,
+/// 4.25 for half of a 4 × 1 rectangle. Shadow rays leaving a fan of
+/// slivers (the test in `tests/bvh_props.rs`, 20,000 rays per width)
+/// first met the fan through the test's own distances at about 80 (3
+/// rays; at 33, none; at 333, 236): 16 leaves a factor of five. The
+/// CS184 scenes hold none (CBbunny, cow, beetle) to a few (maxplanck:
+/// 10 of 50,801) to many (building: 3,422 of 39,506).
+const SLIVER_ASPECT: f64 = 16.0;
+
 impl TriGroup {
-    /// Packs triangles `ids` (at most [`TRI_WIDTH`]) of `tris`.
-    pub fn new(ids: &[u32], tris: &Triangles) -> TriGroup {
-        debug_assert!(ids.len() <= TRI_WIDTH);
+    /// Packs triangles `prims` (at most [`TRI_WIDTH`]) of `tris`.
+    pub fn new(prims: &[u32], tris: &Triangles) -> TriGroup {
+        debug_assert!(prims.len() <= TRI_WIDTH);
         let mut v = [[[f32::NAN; TRI_WIDTH]; 3]; 3];
-        let mut id = [NO_HIT; TRI_WIDTH];
-        for (lane, &prim) in ids.iter().enumerate() {
-            for (k, p) in tris.vertices(prim as usize).iter().enumerate() {
+        let mut ids = [NO_HIT; TRI_WIDTH];
+        for (lane, &prim) in prims.iter().enumerate() {
+            assert!(prim < SLIVER, "primitive id {prim} is too large");
+            let corners = tris.vertices(prim as usize);
+            for (k, p) in corners.iter().enumerate() {
                 v[k][0][lane] = p.x;
                 v[k][1][lane] = p.y;
                 v[k][2][lane] = p.z;
             }
-            id[lane] = prim;
+            ids[lane] = prim | if is_sliver(corners) { SLIVER } else { 0 };
         }
         TriGroup {
             v: v.map(|vertex| vertex.map(TriLanes::from)),
-            id,
+            ids,
         }
+    }
+
+    /// The primitive id of `lane`, a real (non-padding) lane.
+    #[inline(always)]
+    pub fn id(&self, lane: usize) -> u32 {
+        self.ids[lane % TRI_WIDTH] & !SLIVER
+    }
+
+    /// The primitive ids of the real lanes.
+    #[cfg(test)]
+    pub fn prims(&self) -> impl Iterator<Item = u32> + '_ {
+        (0..self.len() as usize).map(|lane| self.id(lane))
+    }
+
+    /// The lanes holding slivers (and padding, which never hits).
+    #[inline(always)]
+    pub fn slivers(&self) -> u32 {
+        const { assert!(SLIVER == 1 << 30) };
+        (wide::u32x8::from(self.ids) << 1u32).to_bitmask()
+    }
+
+    /// Whether any real lane holds a sliver.
+    pub fn has_slivers(&self) -> bool {
+        self.slivers() & ((1 << self.len()) - 1) != 0
     }
 
     /// Number of real (non-padding) triangles, without a branch (groups
@@ -83,9 +131,21 @@ impl TriGroup {
     #[inline]
     pub fn len(&self) -> u32 {
         const { assert!(TRI_WIDTH == 8 && NO_HIT == u32::MAX) };
-        let padding = wide::u32x8::from(self.id).to_bitmask();
+        let padding = wide::u32x8::from(self.ids).to_bitmask();
         TRI_WIDTH as u32 - padding.count_ones()
     }
+}
+
+/// Whether the triangle with `corners` is a sliver ([`SLIVER`]), in f64.
+/// A degenerate triangle (zero area) counts as one.
+fn is_sliver(corners: [Vec3; 3]) -> bool {
+    let [a, b, c] = corners.map(|p| p.as_dvec3());
+    let longest = [b - a, c - b, a - c]
+        .map(|e| e.length_squared())
+        .into_iter()
+        .fold(0.0, f64::max);
+    let limit = SLIVER_ASPECT * (b - a).cross(c - a).length();
+    longest > limit || limit.is_nan()
 }
 
 /// Per-ray constants of the watertight test.
@@ -378,6 +438,217 @@ fn test_pairs(
     }
 }
 
+/// How far the test's range is widened past `t_far` for [`confirm`] to
+/// see the hits it might move back inside: a relative 2⁻¹⁰.
+pub(crate) const WIDEN: f32 = 1.0 + 1.0 / 1024.0;
+
+/// Confirms the hits `h.mask` of [`intersect_group`] for the ray `r`, run
+/// with its range widened to `t_far · WIDEN`, and returns the lanes left:
+/// those whose distance lies in `[0, t_far]`, measured again from the
+/// triangle's plane in f64 for slivers where the test's own is
+/// ill-conditioned ([`confirm_slivers`]). `ANY_HIT` queries need only the
+/// verdict; a closest-hit query may get back other lanes beyond `t_far`
+/// (in the widened range), which its nearest-so-far test drops anyway.
+#[inline(always)]
+pub(crate) fn confirm<const ANY_HIT: bool>(
+    g: &TriGroup,
+    r: &RayTri,
+    h: &mut GroupHit,
+    t_far: f32,
+) -> u32 {
+    let slivers = g.slivers() & h.mask;
+    // A closest-hit query's caller drops hits beyond its nearest so far
+    // itself.
+    if ANY_HIT {
+        h.mask &= h.t.simd_le(TriLanes::splat(t_far)).to_bitmask() | slivers;
+    }
+    if slivers != 0 {
+        group_slivers::<ANY_HIT>(g, r, slivers, t_far, h);
+    }
+    h.mask
+}
+
+/// [`confirm`] for the closest hits of [`intersect_rays`] (lanes = rays,
+/// the triangle in `lane` of `g`).
+#[inline(always)]
+pub(crate) fn confirm_rays(
+    g: &TriGroup,
+    lane: usize,
+    rays: &RayTriPacket,
+    h: &mut GroupHit,
+    t_far: Lanes,
+) -> u32 {
+    let slivers = if g.slivers() & (1 << lane) != 0 {
+        h.mask
+    } else {
+        0
+    };
+    if slivers != 0 {
+        ray_slivers(g, lane, rays, slivers, t_far, h);
+    }
+    h.mask
+}
+
+/// [`confirm_slivers`] for [`confirm`]. Out of line, and taking the ray
+/// setup by reference: broadcasts built for the call were otherwise
+/// hoisted into every ray's setup (+65 instructions per diffuse ray on
+/// CBbunny; passing the setup by value, or as scalars, measured 10 to 60
+/// more per ray than this).
+#[cold]
+#[inline(never)]
+fn group_slivers<const ANY_HIT: bool>(
+    g: &TriGroup,
+    r: &RayTri,
+    lanes: u32,
+    t_far: f32,
+    h: &mut GroupHit,
+) {
+    confirm_slivers::<ANY_HIT>(
+        |vertex, axis| g.v[vertex][r.k[axis]],
+        (r.o.map(TriLanes::splat), r.s.map(TriLanes::splat)),
+        lanes,
+        TriLanes::splat(t_far),
+        h,
+    );
+}
+
+/// [`confirm_slivers`] for [`confirm_rays`], as [`group_slivers`].
+#[cold]
+#[inline(never)]
+fn ray_slivers(
+    g: &TriGroup,
+    lane: usize,
+    rays: &RayTriPacket,
+    lanes: u32,
+    t_far: Lanes,
+    h: &mut GroupHit,
+) {
+    confirm_slivers::<false>(
+        |vertex, axis| TriLanes::splat(g.v[vertex][rays.k[axis]].as_array()[lane]),
+        (rays.o, rays.s),
+        lanes,
+        t_far,
+        h,
+    );
+}
+
+/// Confirms the sliver lanes `lanes` of a [`test_pairs`] hit `h` (same
+/// arguments): `h.mask` keeps those whose distance lies in `[0, t_far]`.
+///
+/// The test's distance `t = sz·(u·az + v·bz + w·cz) / det` weighs the
+/// vertices' depths by the edge functions. Each edge function is a
+/// difference of two products and carries an error up to ε times their
+/// magnitudes; with `Σ` the sum of all six products' magnitudes, `t` is
+/// accurate to a few ε when `Σ` is close to `|det|`, as for a well-shaped
+/// triangle seen head-on. For a long thin sliver `Σ` can exceed `|det|` a
+/// millionfold and `t` be off by half, outside the triangle's own box:
+/// the hierarchy (which culls by boxes) disagreed with brute force, and
+/// shadow rays met the sliver they left. A pair is ill-conditioned when
+/// `Σ > 4·|det|`, a property of the pair alone, so that its distance is
+/// the same number in every query and structure; those lanes take the
+/// distance from the plane in f64 ([`plane_distances_f64`]).
+///
+/// An any-hit query keeps an ill-conditioned lane without the f64 pass
+/// when `t` lies inside `[0, t_far]` by more than its error bound.
+/// First-order analysis, with `Z = |sz|·max|z|` bounding `|t|` (inside a
+/// triangle the weights `u/det`, `v/det`, `w/det` are convex), gives
+/// `|δt| ≤ Z·ε·(2Σ + 5|det|) / |det|`; the bound used doubles it.
+///
+/// What this does not repair: a well-shaped triangle seen nearly edge-on
+/// is ill-conditioned too, but is not checked (that would cost every hit
+/// the work below, +18% instructions per diffuse ray on CBbunny); and an
+/// ill-conditioned sliver whose f32 distance lies below 0, or above
+/// `t_far · WIDEN`, while its true one lies in `[0, t_far]`, never
+/// reaches here and stays a miss (the widening makes a query that ends
+/// exactly at a hit it returned find that hit again unless the f32
+/// distance was off by more than 2⁻¹⁰).
+#[inline(always)]
+fn confirm_slivers<const ANY_HIT: bool>(
+    p: impl Fn(usize, usize) -> TriLanes,
+    ([ox, oy, oz], [sx, sy, sz]): ([TriLanes; 3], [TriLanes; 3]),
+    lanes: u32,
+    t_far: TriLanes,
+    h: &mut GroupHit,
+) {
+    let az = p(0, 2) - oz;
+    let bz = p(1, 2) - oz;
+    let cz = p(2, 2) - oz;
+    let ax = sx.mul_neg_add(az, p(0, 0) - ox);
+    let ay = sy.mul_neg_add(az, p(0, 1) - oy);
+    let bx = sx.mul_neg_add(bz, p(1, 0) - ox);
+    let by = sy.mul_neg_add(bz, p(1, 1) - oy);
+    let cx = sx.mul_neg_add(cz, p(2, 0) - ox);
+    let cy = sy.mul_neg_add(cz, p(2, 1) - oy);
+    let products = (cx * by).abs()
+        + (cy * bx).abs()
+        + (ax * cy).abs()
+        + (ay * cx).abs()
+        + (bx * ay).abs()
+        + (by * ax).abs();
+    let det = h.det.abs();
+    let mut unsure = products.simd_gt(TriLanes::splat(4.0) * det).to_bitmask() & lanes;
+    if ANY_HIT && unsure != 0 {
+        let depth = az.abs().max(bz.abs()).max(cz.abs()) * sz.abs();
+        let eps = TriLanes::splat(f32::EPSILON);
+        let bound =
+            depth * eps * (TriLanes::splat(4.0) * products + TriLanes::splat(10.0) * det) / det;
+        let sure = (h.t - bound).simd_ge(TriLanes::ZERO) & (h.t + bound).simd_le(t_far);
+        unsure &= !sure.to_bitmask();
+    }
+    // Well-conditioned lanes keep the f32 verdict at the true end.
+    h.mask = (h.mask & !lanes) | (lanes & !unsure & h.t.simd_le(t_far).to_bitmask());
+    if unsure != 0 {
+        plane_distances_f64(unsure, &p, [ox, oy, oz], [sx, sy, sz], t_far, h);
+    }
+}
+
+/// The distances of the lanes in `lanes` from the triangle's plane, in
+/// f64 in the ray's permuted frame, where the direction is
+/// `(sx, sy, 1) / sz`: `t = sz·(n·a) / (n·(sx, sy, 1))` with `a` the first
+/// vertex relative to the origin and `n = (b − a) × (c − a)`. The vertex
+/// differences are exact in f64 and the products nearly so, whatever the
+/// triangle's shape. Lanes whose distance leaves `[0, t_far]` (or is
+/// undefined: the plane parallel to the ray) are left out of `h.mask`, the
+/// others put in.
+#[cold]
+#[inline(never)]
+fn plane_distances_f64(
+    lanes: u32,
+    p: &impl Fn(usize, usize) -> TriLanes,
+    o: [TriLanes; 3],
+    s: [TriLanes; 3],
+    t_far: TriLanes,
+    h: &mut GroupHit,
+) {
+    let mut t = h.t.to_array();
+    let t_far = t_far.to_array();
+    let (o, s) = (o.map(TriLanes::to_array), s.map(TriLanes::to_array));
+    let vertex = |k: usize| [0, 1, 2].map(|axis| p(k, axis).to_array());
+    let v = [vertex(0), vertex(1), vertex(2)];
+    for i in crate::lanes::each(lanes) {
+        let rel = |k: usize| -> [f64; 3] {
+            std::array::from_fn(|axis| v[k][axis][i] as f64 - o[axis][i] as f64)
+        };
+        let (a, b, c) = (rel(0), rel(1), rel(2));
+        let e1: [f64; 3] = std::array::from_fn(|j| b[j] - a[j]);
+        let e2: [f64; 3] = std::array::from_fn(|j| c[j] - a[j]);
+        let n = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        let along = n[0] * s[0][i] as f64 + n[1] * s[1][i] as f64 + n[2];
+        let dist = s[2][i] as f64 * (n[0] * a[0] + n[1] * a[1] + n[2] * a[2]) / along;
+        // Compared once rounded, so that a query ending at this very
+        // distance (as returned) still finds it; NaN fails both.
+        t[i] = dist as f32;
+        if t[i] >= 0.0 && t[i] <= t_far[i] {
+            h.mask |= 1 << i;
+        }
+    }
+    h.t = TriLanes::from(t);
+}
+
 /// Recomputes the edge functions of the lanes in `lanes` in f64.
 #[cold]
 #[inline(never)]
@@ -437,6 +708,48 @@ mod tests {
             k: [kx, ky, kz],
             s: [d[kx] * inv_dz, d[ky] * inv_dz, inv_dz],
             o: [o[kx], o[ky], o[kz]],
+        }
+    }
+
+    /// Triangles are flagged as slivers by shape alone (longest edge
+    /// squared against twice the area, [`SLIVER_ASPECT`]), whatever their
+    /// size, position or orientation; the flag leaves ids and the
+    /// padding count intact.
+    #[test]
+    fn slivers_are_flagged_by_shape() {
+        // (corners in the plane, sliver?)
+        let shapes: [([[f32; 2]; 3], bool); 7] = [
+            ([[0.0, 0.0], [1.0, 0.0], [0.5, 0.866]], false), // equilateral: 1.15
+            ([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], false),   // half a square: 2
+            ([[0.0, 0.0], [4.0, 0.0], [4.0, 1.0]], false),   // 4 × 1: 4.25
+            ([[0.0, 0.0], [15.0, 0.0], [15.0, 1.0]], false), // 15 × 1: 15.03
+            ([[0.0, 0.0], [17.0, 0.0], [17.0, 1.0]], true),  // 17 × 1: 17.03
+            ([[0.0, 0.0], [10.0, 0.0], [0.0, 0.03]], true),  // a fan's blade
+            ([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]], true),    // degenerate
+        ];
+        for (scale, offset) in [(1.0f32, 0.0f32), (1e-3, 10.0), (1e3, -5.0)] {
+            // An orthonormal frame tilted out of every axis plane.
+            let u = Vec3::new(1.0, 0.5, 0.2).normalize();
+            let v = u.cross(Vec3::new(0.3, -1.0, 0.7)).normalize();
+            let place = |[x, y]: [f32; 2]| (x * u + y * v) * scale + Vec3::splat(offset);
+            let mut tris = Triangles::default();
+            for (corners, _) in &shapes {
+                let first = tris.positions.len() as u32;
+                tris.positions.extend(corners.iter().map(|&c| place(c)));
+                tris.indices.push([first, first + 1, first + 2]);
+            }
+            let prims: Vec<u32> = (0..shapes.len() as u32).rev().collect();
+            let g = TriGroup::new(&prims, &tris);
+            assert_eq!(g.len(), shapes.len() as u32);
+            for (lane, &prim) in prims.iter().enumerate() {
+                assert_eq!(g.id(lane), prim);
+                let want = shapes[prim as usize].1;
+                assert_eq!(
+                    g.slivers() & (1 << lane) != 0,
+                    want,
+                    "shape {prim} at scale {scale}"
+                );
+            }
         }
     }
 
