@@ -20,11 +20,11 @@ command -v objdump > /dev/null || { echo "inline-check.sh: needs objdump (apt-ge
 HOT='^wavepath::(bvh::Bvh::(intersect|occluded)(_walk)?|bvh::traverse::Scene::leaf_closest_packet|wavefront::(shade::shade|surface::SurfacePoints::compute|compact::compact|generate::refill|shadow::resolve_[a-z_]+)|sampling::rng::pixel_offsets)$'
 # Out of line on purpose or harmless: cold paths (exact-edge refinement,
 # slivers' distances, second walks of rays that met slivers, brute force,
-# a whole batch's walk called once per batch,
+# a whole batch's walk called once per batch, a packet's sphere leaves,
 # empty batch slots, growing a buffer, unwinding), the packet leaf test
 # (kept apart so its registers do not crowd the single-ray loop), and the
 # wave's draws (one call per wave).
-ALLOWED='refine_edges_f64|Bvh::(intersect|occluded)_walk|group_slivers|ray_slivers|_careful|_brute|leaf_closest_packet|miss_slot|VertexDraws::draw|RawVec|finish_grow|_Unwind_Resume|^mem(cpy|set|move)|panic|handle_alloc_error|capacity_overflow'
+ALLOWED='refine_edges_f64|packet::closest::\{\{closure\}\}|Bvh::(intersect|occluded)_walk|group_slivers|ray_slivers|_careful|_brute|leaf_closest_packet|miss_slot|VertexDraws::draw|RawVec|finish_grow|_Unwind_Resume|^mem(cpy|set|move)|panic|handle_alloc_error|capacity_overflow'
 
 found=$(objdump -d --no-show-raw-insn -C "$BIN" | awk -v hot="$HOT" -v allowed="$ALLOWED" '
   /^[0-9a-f]+ <.*>:$/ {

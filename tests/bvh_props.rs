@@ -1058,15 +1058,47 @@ fn rays_offset_from_a_surface_by_its_reach_leave_it() {
 /// (offset by its reach, as the renderer offsets them) toward a light
 /// above it agree too and meet nothing: the fan lies wholly below them.
 /// Without the slivers' distances taken from the plane in f64, the
-/// shadow rays met the fan.
+/// shadow rays met the fan. Once as it is (a scene of slivers: walked
+/// carefully), once among 10,082 well-shaped triangles far below (one
+/// sliver in a hundred: walked fast, the rays that meet a sliver twice).
 #[test]
-
 fn slivers_agree_with_brute_force_and_release_their_shadow_rays() {
+    for diluted in [false, true] {
+        slivers_among(diluted);
+    }
+}
+
+/// [`slivers_agree_with_brute_force_and_release_their_shadow_rays`], with
+/// or without the well-shaped triangles.
+fn slivers_among(diluted: bool) {
     let n = 100u32;
     let mut positions = vec![Vec3::new(0.0, 0.0, -8.0)];
     positions.extend((0..=n).map(|i| Vec3::new(-1.5 + 3.0 * i as f32 / n as f32, 0.0, 2.0)));
     let fan: Vec<[u32; 3]> = (0..n).map(|i| [0, i + 1, i + 2]).collect();
     let mut rng = Rng(77);
+    // With `diluted`, a grid of 71 × 71 squares 5 below the fan appended.
+    let scene = |mut positions: Vec<Vec3>, mut indices: Vec<[u32; 3]>| {
+        if diluted {
+            let k = 71;
+            let first = positions.len() as u32;
+            for j in 0..=k {
+                for i in 0..=k {
+                    positions.push(Vec3::new(i as f32 - 35.5, -5.0, j as f32 - 35.5));
+                }
+            }
+            let at = |i: u32, j: u32| first + j * (k + 1) + i;
+            for j in 0..k {
+                for i in 0..k {
+                    indices.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                    indices.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+                }
+            }
+        }
+        let g = geometry(positions, indices, Vec::new());
+        let walk = Bvh::build(&g, Accel::Sah).sliver_walk();
+        assert_eq!(walk, if diluted { "fast" } else { "careful" });
+        g
+    };
 
     let lid = |x: f32, z: f32| Vec3::new(x, 5e-5, z);
     let mut covered = positions.clone();
@@ -1079,7 +1111,7 @@ fn slivers_agree_with_brute_force_and_release_their_shadow_rays() {
     let k = n + 2;
     let mut indices = fan.clone();
     indices.extend([[k, k + 1, k + 2], [k, k + 3, k + 1]]);
-    let covered = geometry(covered, indices, Vec::new());
+    let covered = scene(covered, indices);
     let eye = Vec3::new(0.0, 1.0, 3.0);
     let mut rays = Rays::default();
     for _ in 0..4000 {
@@ -1101,7 +1133,34 @@ fn slivers_agree_with_brute_force_and_release_their_shadow_rays() {
         "a ray went under the lid"
     );
 
-    let floor = geometry(positions.clone(), fan.clone(), Vec::new());
+    // The same rays without the lid meet the fan itself (or, past its
+    // edges, the grid far below).
+    let floor = scene(positions.clone(), fan.clone());
+    compare(&floor, &rays).unwrap();
+    Bvh::build(&floor, Accel::None).intersect(
+        &rays,
+        &mut hits,
+        &mut TraversalStats::default(),
+        None,
+    );
+    let on_fan = hits.prim.iter().filter(|&&p| p < n).count();
+    assert!(on_fan > 3000, "{on_fan} of 4000 rays met the fan");
+    // Shadow rays from below, whose only occluder is the fan.
+    let mut rays = Rays::default();
+    for _ in 0..4000 {
+        let o = Vec3::new((rng.next() - 0.5) * 0.6, -1.0, -5.0 + 6.0 * rng.next());
+        rays.push(o, Vec3::new(0.0, 3.0, 0.0) - o, 1.0);
+    }
+    compare(&floor, &rays).unwrap();
+    let mut occluded = Vec::new();
+    let bvh = Bvh::build(&floor, Accel::Sah);
+    bvh.occluded(&rays, &mut occluded, &mut TraversalStats::default());
+    let blocked = occluded.iter().filter(|&&o| o).count();
+    assert!(
+        blocked > 3000,
+        "{blocked} of 4000 rays from below were blocked"
+    );
+
     let light = Vec3::new(0.0, 3.0, 0.0);
     let mut rays = Rays::default();
     for _ in 0..4000 {

@@ -218,9 +218,9 @@ pub struct Bvh {
     depth: usize,
     triangle_count: usize,
     sphere_count: usize,
-    /// Whether any triangle is a sliver (`TriGroup::slivers`): only then
-    /// do the walks check their hits for them.
-    slivers: bool,
+    /// How the walks treat slivers (`TriGroup::slivers`): see
+    /// [`walk_for_slivers`].
+    walk: u8,
 }
 
 impl Bvh {
@@ -239,7 +239,7 @@ impl Bvh {
             depth: 0,
             triangle_count: tri_count,
             sphere_count,
-            slivers: false,
+            walk: traverse::PLAIN,
         };
         if accel == Accel::None {
             let ids: Vec<u32> = (0..tri_count as u32).collect();
@@ -251,7 +251,7 @@ impl Bvh {
                     id: (tri_count + i) as u32,
                 })
                 .collect();
-            bvh.slivers = bvh.tri_groups.iter().any(TriGroup::has_slivers);
+            bvh.walk = walk_for_slivers(&bvh.tri_groups);
             return bvh;
         }
 
@@ -290,7 +290,7 @@ impl Bvh {
         bvh.spheres = flat.spheres;
         bvh.root = flat.root;
         bvh.depth = flat.depth;
-        bvh.slivers = bvh.tri_groups.iter().any(TriGroup::has_slivers);
+        bvh.walk = walk_for_slivers(&bvh.tri_groups);
         if let Some(root) = root {
             let b = root.bounds();
             bvh.bounds = [b.min.to_array(), b.max.to_array()];
@@ -348,10 +348,10 @@ impl Bvh {
         stats: &mut TraversalStats,
         cost: Option<&mut [u32]>,
     ) {
-        if self.slivers {
-            self.intersect_walk::<{ traverse::FAST }>(rays, hits, stats, cost);
-        } else {
-            self.intersect_walk::<{ traverse::PLAIN }>(rays, hits, stats, cost);
+        match self.walk {
+            traverse::PLAIN => self.intersect_walk::<{ traverse::PLAIN }>(rays, hits, stats, cost),
+            traverse::FAST => self.intersect_walk::<{ traverse::FAST }>(rays, hits, stats, cost),
+            _ => self.intersect_walk::<{ traverse::CAREFUL }>(rays, hits, stats, cost),
         }
     }
 
@@ -437,10 +437,10 @@ impl Bvh {
     /// Whether anything is hit in `[0, t_max]`, for every ray of the batch
     /// (stops at the first hit found). `occluded` is resized to `rays.len()`.
     pub fn occluded(&self, rays: &Rays, occluded: &mut Vec<bool>, stats: &mut TraversalStats) {
-        if self.slivers {
-            self.occluded_walk::<{ traverse::FAST }>(rays, occluded, stats);
-        } else {
-            self.occluded_walk::<{ traverse::PLAIN }>(rays, occluded, stats);
+        match self.walk {
+            traverse::PLAIN => self.occluded_walk::<{ traverse::PLAIN }>(rays, occluded, stats),
+            traverse::FAST => self.occluded_walk::<{ traverse::FAST }>(rays, occluded, stats),
+            _ => self.occluded_walk::<{ traverse::CAREFUL }>(rays, occluded, stats),
         }
     }
 
@@ -508,7 +508,11 @@ impl Bvh {
                     }
                 }
                 nodes += slot_nodes(visits, candidates, end - start);
-                nodes += work.iter().map(|w| w.nodes as u64).sum::<u64>();
+                if WALK != traverse::PLAIN {
+                    // The second walks' node visits (bundles count theirs
+                    // in `visits`).
+                    nodes += work.iter().map(|w| w.nodes as u64).sum::<u64>();
+                }
                 prims += work.iter().map(|w| w.prims as u64).sum::<u64>();
                 continue;
             }
@@ -610,6 +614,19 @@ impl Bvh {
     pub fn triangle_group_count(&self) -> usize {
         self.tri_groups.len()
     }
+
+    /// How the queries treat long thin triangles (slivers, whose hits
+    /// may take their distance from the plane in f64): `"plain"` in a
+    /// scene without them, `"fast"` with a few (rays that meet one are
+    /// walked again), `"careful"` with more than one in a hundred. The
+    /// answers are the same; the costs differ.
+    pub fn sliver_walk(&self) -> &'static str {
+        match self.walk {
+            traverse::PLAIN => "plain",
+            traverse::FAST => "fast",
+            _ => "careful",
+        }
+    }
 }
 
 /// Node visits of the `lanes` rays of one packet (one or two batch slots)
@@ -619,6 +636,27 @@ impl Bvh {
 fn slot_nodes(visits: u64, candidates: u32, lanes: usize) -> u64 {
     let in_slot = (1u32 << lanes) - 1;
     visits + u64::from((!candidates & in_slot).count_ones())
+}
+
+/// How to walk a scene whose triangles are `groups`: [`traverse::PLAIN`]
+/// without slivers; with a few, [`traverse::FAST`] (rays that meet one
+/// are walked twice); with more than one triangle in a hundred,
+/// [`traverse::CAREFUL`] from the start. On building (9% slivers) fast
+/// walks walked so many rays twice that careful ones were faster
+/// (PERF.md, BVH, session of 2026-11-28).
+fn walk_for_slivers(groups: &[TriGroup]) -> u8 {
+    let (mut slivers, mut triangles) = (0, 0);
+    for g in groups {
+        slivers += (g.slivers() & ((1 << g.len()) - 1)).count_ones();
+        triangles += g.len();
+    }
+    if slivers == 0 {
+        traverse::PLAIN
+    } else if slivers * 100 <= triangles {
+        traverse::FAST
+    } else {
+        traverse::CAREFUL
+    }
 }
 
 /// The state of one [`Bvh::intersect`] call: where results and counters

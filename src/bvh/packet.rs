@@ -319,6 +319,7 @@ fn descend<L: RayLanes>(
 /// `WALK` as for `traverse::group_closest`: a [`FAST`] walk that meets
 /// slivers sets `work.unsure`, and the packet is to be walked again
 /// ([`closest_careful`]).
+#[inline(always)]
 pub(crate) fn closest<L: RayLanes, const WALK: u8>(
     scene: &Scene,
     stack: &mut PacketStack<L>,
@@ -346,8 +347,7 @@ pub(crate) fn closest<L: RayLanes, const WALK: u8>(
             if child.is_sphere() {
                 for i in crate::lanes::each(mask) {
                     let ray = packet.ray(i);
-                    let tri = packet.tri[i / WIDTH].ray(i % WIDTH);
-                    best.narrow(i, |c| scene.leaf_closest::<WALK>(child, ray, &tri, c, work));
+                    best.narrow(i, |c| scene.leaf_closest_spheres(child, ray, c, work));
                 }
             } else {
                 for s in 0..L::SLOTS {

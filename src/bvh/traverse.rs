@@ -541,12 +541,25 @@ impl Scene<'_> {
         best: &mut Closest,
         work: &mut Work,
     ) {
-        let items = leaf.index()..leaf.index() + leaf.count();
         if leaf.is_sphere() {
-            leaf_spheres(&self.spheres[items], o, d, best, work);
+            self.leaf_closest_spheres(leaf, (o, d), best, work);
         } else {
+            let items = leaf.index()..leaf.index() + leaf.count();
             leaf_triangles::<WALK>(&self.tri_groups[items], tri, best, work);
         }
+    }
+
+    /// [`leaf_closest`](Self::leaf_closest) for a sphere leaf.
+    #[inline(always)]
+    pub fn leaf_closest_spheres(
+        &self,
+        leaf: ChildRef,
+        (o, d): (Vec3, Vec3),
+        best: &mut Closest,
+        work: &mut Work,
+    ) {
+        let items = leaf.index()..leaf.index() + leaf.count();
+        leaf_spheres(&self.spheres[items], o, d, best, work);
     }
 
     /// Tests the rays `rays` of one batch slot of a packet against the
@@ -838,7 +851,7 @@ pub(crate) fn closest<const WALK: u8>(
 
 /// Whether anything is hit along `o + t·d`, `t ∈ [0, t_max]`, for the ray
 /// in `lane` of a batch cull that let it through (as for [`closest`]).
-#[inline]
+#[inline(always)]
 pub(crate) fn any<const WALK: u8>(
     scene: &Scene,
     stack: &mut Stack,

@@ -118,11 +118,6 @@ impl TriGroup {
         (wide::u32x8::from(self.ids) << 1u32).to_bitmask()
     }
 
-    /// Whether any real lane holds a sliver.
-    pub fn has_slivers(&self) -> bool {
-        self.slivers() & ((1 << self.len()) - 1) != 0
-    }
-
     /// Number of real (non-padding) triangles, without a branch (groups
     /// full and partial alternate along a ray's path): padding ids are
     /// [`NO_HIT`] = `u32::MAX`, the only ids with the top bit set (a scene

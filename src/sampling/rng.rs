@@ -350,6 +350,9 @@ pub struct VertexDraws {
 impl VertexDraws {
     /// Draws blocks of `counts[b]` points from the next `counts.len()`
     /// dimension pairs of every stream, and moves the streams past them.
+    /// Out of line: one call per wave, and inlined into the shading
+    /// stage it only moved its own calls there.
+    #[inline(never)]
     pub fn draw(&mut self, streams: &mut [SampleStream], counts: impl IntoIterator<Item = u32>) {
         self.counts.clear();
         self.counts.extend(counts);
