@@ -1173,6 +1173,92 @@ fn slivers_among(diluted: bool) {
     assert_eq!(compare(&floor, &rays), Ok(0), "shadow rays met the fan");
 }
 
+/// A sliver whose f32 distance overshoots its true one still wins over a
+/// surface between the two, whichever of them a walk meets first (a
+/// review's case: a ray leaving just above a floor, meeting a sliver of
+/// the fan at 2.03e-6 whose f32 distance reads 8.18e-6, with a floor
+/// 1e-6 lower at 4.04e-6). When the floor came first, the sliver's f32
+/// distance lay beyond the nearest hit so far and it was never measured
+/// again: brute force (which tests in id order) and packets answered the
+/// floor, the hierarchy the sliver.
+#[test]
+fn a_sliver_nearer_than_its_f32_distance_wins_in_any_order() {
+    let sliver = [
+        Vec3::new(0.0, 0.0, -8.0),
+        Vec3::new(-1.44, 0.0, 2.0),
+        Vec3::new(-1.41, 0.0, 2.0),
+    ];
+    let floor = [
+        Vec3::new(-3.0, -1e-6, -4.0),
+        Vec3::new(3.0, -1e-6, -4.0),
+        Vec3::new(0.0, -1e-6, -2.0),
+    ];
+    // Eight small triangles far off, so that brute force's first group
+    // holds the floor and its second the sliver (or the other way).
+    let far: Vec<[Vec3; 3]> = (0..8)
+        .map(|i| {
+            let c = Vec3::new(100.0 + 3.0 * i as f32, 50.0, 0.0);
+            [c, c + Vec3::X, c + Vec3::Y]
+        })
+        .collect();
+    let o = Vec3::new(-0.678_682_1, 1e-6, -3.232_565_2);
+    let d = Vec3::new(-0.039_571_06, -0.491_550_83, 1.0);
+    let mut rays = Rays::default();
+    for _ in 0..8 {
+        rays.push(o, d, f32::INFINITY);
+    }
+    for sliver_first in [false, true] {
+        let mut tris = Vec::new();
+        let (first, second) = if sliver_first {
+            (sliver, floor)
+        } else {
+            (floor, sliver)
+        };
+        tris.push(first);
+        tris.extend(far.iter().copied());
+        tris.push(second);
+        let sliver_id = if sliver_first { 0 } else { 9 };
+        let positions: Vec<Vec3> = tris.iter().flatten().copied().collect();
+        let indices = (0..tris.len() as u32)
+            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+            .collect();
+        let g = geometry(positions, indices, Vec::new());
+        compare(&g, &rays).unwrap();
+        for accel in ACCELS {
+            let mut hits = Hits::default();
+            Bvh::build(&g, accel).intersect(&rays, &mut hits, &mut TraversalStats::default(), None);
+            assert!(
+                hits.prim.iter().all(|&p| p == sliver_id),
+                "{accel} (sliver first: {sliver_first}): {:?}",
+                hits.prim
+            );
+        }
+    }
+}
+
+/// Any-hit and closest-hit queries agree on a sliver met at grazing
+/// incidence (a review's case: f32 distance 8.975419, true 8.975747).
+/// Any-hit queries once skipped the f64 distance when the f32 one lay
+/// inside the range by more than an error bound, which the rounding of
+/// the sheared vertices broke here: a ray ending at 8.9755 was occluded
+/// yet hit nothing.
+#[test]
+fn any_hit_and_closest_hit_agree_on_a_grazing_sliver() {
+    let positions = vec![
+        Vec3::new(4.907_243_7, 2.990_653_5, -0.102_963_25),
+        Vec3::new(4.143_017, 2.168_352, 0.636_215_9),
+        Vec3::new(4.278_741, 2.313_907_1, 0.494_737_5),
+    ];
+    let g = geometry(positions, vec![[0, 1, 2]], Vec::new());
+    let o = Vec3::new(-0.890_049_1, -3.261_955_3, 5.053_872);
+    let d = Vec3::new(0.583_077_5, 0.629_014_13, -0.514_161_3);
+    let mut rays = Rays::default();
+    for t_max in [8.9755, 8.97575, 8.976, f32::INFINITY] {
+        rays.push(o, d, t_max);
+    }
+    compare(&g, &rays).unwrap();
+}
+
 /// Direction components below f32's normal range count as zeros in every
 /// query. Their reciprocals overflow, so the box test took such a ray for
 /// parallel to the axis while the triangle test did not: a ray starting

@@ -39,8 +39,8 @@ use super::flatten::{ChildRef, WideNode};
 use super::packet::{MAX_RAYS, RayLanes};
 use super::sphere::{PackedSphere, intersect_sphere};
 use super::triangle::{
-    GroupHit, PacketTri, RayTri, RayTriLanes, TriGroup, WIDEN, confirm, confirm_rays,
-    intersect_group, intersect_rays,
+    GroupHit, PacketTri, RayTri, RayTriLanes, TriGroup, confirm, confirm_rays, intersect_group,
+    intersect_rays,
 };
 use super::{Lanes, WIDTH};
 use crate::lanes::{from_bits, per_axis, to_bits};
@@ -477,15 +477,28 @@ fn leaf_triangles<const WALK: u8>(
     }
 }
 
+/// The far end of the triangle test for group `g` in a walk that checks
+/// slivers: `t_far`, or, where the group holds a sliver, +∞, so that
+/// every hit on it is seen: its f32 distance may lie beyond `t_far`
+/// while its true one does not, and which hits a walk met first must not
+/// decide whether it is seen (`triangle::confirm`).
+#[inline(always)]
+fn sliver_range(g: &TriGroup, t_far: f32) -> f32 {
+    if g.slivers() != 0 {
+        f32::INFINITY
+    } else {
+        t_far
+    }
+}
+
 /// Tests a ray against the triangles of one group, narrowing `best`.
 /// Returns whether hits on slivers were set aside ([`FAST`] walks).
 #[inline(always)]
 fn group_closest<const WALK: u8>(g: &TriGroup, tri: &RayTri, best: &mut Closest) -> bool {
-    // Widened for slivers, whose distance may move inside (`confirm`).
     let t_far = if WALK == PLAIN {
         best.t
     } else {
-        best.t * WIDEN
+        sliver_range(g, best.t)
     };
     let mut h = intersect_group(g, tri, t_far);
     if h.mask == 0 {
@@ -589,10 +602,11 @@ impl Scene<'_> {
                 PacketTri::Shared(packet) if n_rays > len => {
                     let mut t_best = best.t_slot(slot);
                     for lane in 0..len as usize {
-                        let t_far = if WALK == PLAIN {
-                            t_best
+                        let sliver = WALK != PLAIN && g.slivers() & (1 << lane) != 0;
+                        let t_far = if sliver {
+                            Lanes::splat(f32::INFINITY)
                         } else {
-                            t_best * Lanes::splat(WIDEN)
+                            t_best
                         };
                         let mut h = intersect_rays(g, lane, packet, t_far);
                         h.mask &= rays;
@@ -602,7 +616,7 @@ impl Scene<'_> {
                         match WALK {
                             PLAIN => {}
                             FAST => {
-                                if g.slivers() & (1 << lane) != 0 {
+                                if sliver {
                                     work.unsure = true;
                                     continue;
                                 }
@@ -663,9 +677,13 @@ fn triangles_occlude<const WALK: u8>(
     t_max: f32,
     work: &mut Work,
 ) -> bool {
-    let t_test = if WALK == PLAIN { t_max } else { t_max * WIDEN };
     for g in groups {
         work.prims += g.len();
+        let t_test = if WALK == PLAIN {
+            t_max
+        } else {
+            sliver_range(g, t_max)
+        };
         let mut h = intersect_group(g, tri, t_test);
         if h.mask == 0 {
             continue;

@@ -48,7 +48,7 @@ use crate::ray::NO_HIT;
 
 /// [`TRI_WIDTH`] triangles, structure of arrays: the real ones in lanes
 /// `0..len()`, then padding lanes with NaN vertices (every comparison
-/// fails, so they never hit) and id [`NO_HIT`]. 320 bytes, aligned so
+/// fails, so they never hit) and id [`PADDING`]. 320 bytes, aligned so
 /// that a group is exactly five cache lines (at 32-byte alignment an
 /// allocation could start mid-line, and then every group straddled six).
 #[derive(Clone, Copy, Debug)]
@@ -68,6 +68,10 @@ pub(crate) struct TriGroup {
 /// ids stay below it: 2³⁰ triangles would take hundreds of GiB.)
 const SLIVER: u32 = 1 << 30;
 
+/// The id of a padding lane: the top bit set ([`TriGroup::len`]), the
+/// [`SLIVER`] bit clear.
+const PADDING: u32 = NO_HIT & !SLIVER;
+
 /// See [`SLIVER`]: 1 for an equilateral triangle, 2 for half a square,
 /// 4.25 for half of a 4 × 1 rectangle. Shadow rays leaving a fan of
 /// slivers (the test in `tests/bvh_props.rs`, 20,000 rays per width)
@@ -82,7 +86,7 @@ impl TriGroup {
     pub fn new(prims: &[u32], tris: &Triangles) -> TriGroup {
         debug_assert!(prims.len() <= TRI_WIDTH);
         let mut v = [[[f32::NAN; TRI_WIDTH]; 3]; 3];
-        let mut ids = [NO_HIT; TRI_WIDTH];
+        let mut ids = [PADDING; TRI_WIDTH];
         for (lane, &prim) in prims.iter().enumerate() {
             assert!(prim < SLIVER, "primitive id {prim} is too large");
             let corners = tris.vertices(prim as usize);
@@ -111,7 +115,7 @@ impl TriGroup {
         (0..self.len() as usize).map(|lane| self.id(lane))
     }
 
-    /// The lanes holding slivers (and padding, which never hits).
+    /// The lanes holding slivers.
     #[inline(always)]
     pub fn slivers(&self) -> u32 {
         const { assert!(SLIVER == 1 << 30) };
@@ -119,13 +123,13 @@ impl TriGroup {
     }
 
     /// Number of real (non-padding) triangles, without a branch (groups
-    /// full and partial alternate along a ray's path): padding ids are
-    /// [`NO_HIT`] = `u32::MAX`, the only ids with the top bit set (a scene
-    /// has far fewer than 2³¹ primitives), so the lanes' sign mask counts
+    /// full and partial alternate along a ray's path): padding ids
+    /// ([`PADDING`]) are the only ids with the top bit set (a scene has
+    /// far fewer than 2³¹ primitives), so the lanes' sign mask counts
     /// them.
     #[inline]
     pub fn len(&self) -> u32 {
-        const { assert!(TRI_WIDTH == 8 && NO_HIT == u32::MAX) };
+        const { assert!(TRI_WIDTH == 8 && PADDING >= 1 << 31 && PADDING & SLIVER == 0) };
         let padding = wide::u32x8::from(self.ids).to_bitmask();
         TRI_WIDTH as u32 - padding.count_ones()
     }
@@ -433,17 +437,14 @@ fn test_pairs(
     }
 }
 
-/// How far the test's range is widened past `t_far` for [`confirm`] to
-/// see the hits it might move back inside: a relative 2⁻¹⁰.
-pub(crate) const WIDEN: f32 = 1.0 + 1.0 / 1024.0;
-
 /// Confirms the hits `h.mask` of [`intersect_group`] for the ray `r`, run
-/// with its range widened to `t_far · WIDEN`, and returns the lanes left:
-/// those whose distance lies in `[0, t_far]`, measured again from the
-/// triangle's plane in f64 for slivers where the test's own is
-/// ill-conditioned ([`confirm_slivers`]). `ANY_HIT` queries need only the
-/// verdict; a closest-hit query may get back other lanes beyond `t_far`
-/// (in the widened range), which its nearest-so-far test drops anyway.
+/// with its range open to +∞ when the group holds slivers
+/// (`traverse::sliver_range`), and returns the lanes left: those whose
+/// distance lies in `[0, t_far]`, measured again from the triangle's
+/// plane in f64 for slivers where the test's own is ill-conditioned
+/// ([`confirm_slivers`]). `ANY_HIT` queries need only the verdict; a
+/// closest-hit query may get back other lanes beyond `t_far`, which its
+/// nearest-so-far test drops anyway.
 #[inline(always)]
 pub(crate) fn confirm<const ANY_HIT: bool>(
     g: &TriGroup,
@@ -458,7 +459,7 @@ pub(crate) fn confirm<const ANY_HIT: bool>(
         h.mask &= h.t.simd_le(TriLanes::splat(t_far)).to_bitmask() | slivers;
     }
     if slivers != 0 {
-        group_slivers::<ANY_HIT>(g, r, slivers, t_far, h);
+        group_slivers(g, r, slivers, t_far, h);
     }
     h.mask
 }
@@ -491,14 +492,8 @@ pub(crate) fn confirm_rays(
 /// more per ray than this).
 #[cold]
 #[inline(never)]
-fn group_slivers<const ANY_HIT: bool>(
-    g: &TriGroup,
-    r: &RayTri,
-    lanes: u32,
-    t_far: f32,
-    h: &mut GroupHit,
-) {
-    confirm_slivers::<ANY_HIT>(
+fn group_slivers(g: &TriGroup, r: &RayTri, lanes: u32, t_far: f32, h: &mut GroupHit) {
+    confirm_slivers(
         |vertex, axis| g.v[vertex][r.k[axis]],
         (r.o.map(TriLanes::splat), r.s.map(TriLanes::splat)),
         lanes,
@@ -518,7 +513,7 @@ fn ray_slivers(
     t_far: Lanes,
     h: &mut GroupHit,
 ) {
-    confirm_slivers::<false>(
+    confirm_slivers(
         |vertex, axis| TriLanes::splat(g.v[vertex][rays.k[axis]].as_array()[lane]),
         (rays.o, rays.s),
         lanes,
@@ -543,22 +538,20 @@ fn ray_slivers(
 /// the same number in every query and structure; those lanes take the
 /// distance from the plane in f64 ([`plane_distances_f64`]).
 ///
-/// An any-hit query keeps an ill-conditioned lane without the f64 pass
-/// when `t` lies inside `[0, t_far]` by more than its error bound.
-/// First-order analysis, with `Z = |sz|·max|z|` bounding `|t|` (inside a
-/// triangle the weights `u/det`, `v/det`, `w/det` are convex), gives
-/// `|δt| ≤ Z·ε·(2Σ + 5|det|) / |det|`; the bound used doubles it.
+/// (Any-hit queries once kept an ill-conditioned lane without the f64
+/// pass when `t` lay inside the range by more than an error bound on the
+/// products' rounding; a review found rays at grazing incidence whose
+/// error, from the rounding of the sheared vertices themselves, broke it
+/// sevenfold, so any-hit queries now measure every such lane too.)
 ///
 /// What this does not repair: a well-shaped triangle seen nearly edge-on
 /// is ill-conditioned too, but is not checked (that would cost every hit
 /// the work below, +18% instructions per diffuse ray on CBbunny); and an
-/// ill-conditioned sliver whose f32 distance lies below 0, or above
-/// `t_far · WIDEN`, while its true one lies in `[0, t_far]`, never
-/// reaches here and stays a miss (the widening makes a query that ends
-/// exactly at a hit it returned find that hit again unless the f32
-/// distance was off by more than 2⁻¹⁰).
+/// ill-conditioned sliver whose f32 distance lies below 0 while its true
+/// one does not is never offered here (the test drops it) and stays a
+/// miss.
 #[inline(always)]
-fn confirm_slivers<const ANY_HIT: bool>(
+fn confirm_slivers(
     p: impl Fn(usize, usize) -> TriLanes,
     ([ox, oy, oz], [sx, sy, sz]): ([TriLanes; 3], [TriLanes; 3]),
     lanes: u32,
@@ -580,16 +573,10 @@ fn confirm_slivers<const ANY_HIT: bool>(
         + (ay * cx).abs()
         + (bx * ay).abs()
         + (by * ax).abs();
-    let det = h.det.abs();
-    let mut unsure = products.simd_gt(TriLanes::splat(4.0) * det).to_bitmask() & lanes;
-    if ANY_HIT && unsure != 0 {
-        let depth = az.abs().max(bz.abs()).max(cz.abs()) * sz.abs();
-        let eps = TriLanes::splat(f32::EPSILON);
-        let bound =
-            depth * eps * (TriLanes::splat(4.0) * products + TriLanes::splat(10.0) * det) / det;
-        let sure = (h.t - bound).simd_ge(TriLanes::ZERO) & (h.t + bound).simd_le(t_far);
-        unsure &= !sure.to_bitmask();
-    }
+    let unsure = products
+        .simd_gt(TriLanes::splat(4.0) * h.det.abs())
+        .to_bitmask()
+        & lanes;
     // Well-conditioned lanes keep the f32 verdict at the true end.
     h.mask = (h.mask & !lanes) | (lanes & !unsure & h.t.simd_le(t_far).to_bitmask());
     if unsure != 0 {
@@ -635,9 +622,10 @@ fn plane_distances_f64(
         let along = n[0] * s[0][i] as f64 + n[1] * s[1][i] as f64 + n[2];
         let dist = s[2][i] as f64 * (n[0] * a[0] + n[1] * a[1] + n[2] * a[2]) / along;
         // Compared once rounded, so that a query ending at this very
-        // distance (as returned) still finds it; NaN fails both.
+        // distance (as returned) still finds it; NaN fails both, and a
+        // plane nearly parallel to the ray may put it at +∞, no hit.
         t[i] = dist as f32;
-        if t[i] >= 0.0 && t[i] <= t_far[i] {
+        if t[i] >= 0.0 && t[i] <= t_far[i] && t[i] < f32::INFINITY {
             h.mask |= 1 << i;
         }
     }
