@@ -356,7 +356,7 @@ impl Bvh {
     }
 
     /// [`intersect`](Self::intersect), walking as `WALK` says
-    /// (`traverse::PLAIN` or `FAST`).
+    /// (`traverse::PLAIN`, `FAST` or `CAREFUL`).
     #[inline(never)]
     fn intersect_walk<const WALK: u8>(
         &self,
@@ -496,15 +496,10 @@ impl Bvh {
                     if WALK != traverse::PLAIN && work[lane].unsure {
                         let i = start + lane;
                         let ray = (rays.origin(i), traverse::flush_subnormal(rays.direction(i)));
-                        let mut again = traverse::Work::default();
-                        occluded[i] = traverse::any_careful(
-                            scene,
-                            &mut stack,
-                            (c, lane),
-                            (ray.0, ray.1, rays.t_max[i]),
-                            &mut again,
-                        );
-                        work[lane].add(again);
+                        let ray = (ray.0, ray.1, rays.t_max[i]);
+                        occluded[i] = work[lane].walk_again(|w| {
+                            traverse::any_careful(scene, &mut stack, (c, lane), ray, w)
+                        });
                     }
                 }
                 nodes += slot_nodes(visits, candidates, end - start);
@@ -530,26 +525,15 @@ impl Bvh {
                             let ray = (o, d, t_max);
                             let lane = (cull, i - start);
                             traverse::any::<WALK>(scene, &mut stack, lane, ray, &mut work)
-                                || WALK != traverse::PLAIN && work.unsure && {
-                                    let mut again = traverse::Work::default();
-                                    let hit = traverse::any_careful(
-                                        scene, &mut stack, lane, ray, &mut again,
-                                    );
-                                    work.add(again);
-                                    hit
-                                }
+                                || WALK != traverse::PLAIN
+                                    && work.unsure
+                                    && work.walk_again(|w| {
+                                        traverse::any_careful(scene, &mut stack, lane, ray, w)
+                                    })
                         }
-                        _ => {
-                            let mut brute = traverse::Work::default();
-                            let hit = traverse::any_brute(
-                                &self.tri_groups,
-                                &self.spheres,
-                                (o, d, t_max),
-                                &mut brute,
-                            );
-                            work.add(brute);
-                            hit
-                        }
+                        _ => work.walk_again(|w| {
+                            traverse::any_brute(&self.tri_groups, &self.spheres, (o, d, t_max), w)
+                        }),
                     };
                 }
                 nodes += work.nodes as u64;
@@ -647,7 +631,7 @@ fn slot_nodes(visits: u64, candidates: u32, lanes: usize) -> u64 {
 fn walk_for_slivers(groups: &[TriGroup]) -> u8 {
     let (mut slivers, mut triangles) = (0, 0);
     for g in groups {
-        slivers += (g.slivers() & ((1 << g.len()) - 1)).count_ones();
+        slivers += g.slivers().count_ones();
         triangles += g.len();
     }
     if slivers == 0 {
@@ -727,25 +711,17 @@ impl ClosestBatch<'_> {
                         let fast = traverse::closest::<WALK>(scene, stack, lane, ray, &mut work);
                         if WALK != traverse::PLAIN && work.unsure {
                             // It met slivers (traverse::group_closest).
-                            let mut again = traverse::Work::default();
-                            let c = traverse::closest_careful(scene, stack, lane, ray, &mut again);
-                            work.add(again);
-                            c
+                            work.walk_again(|w| {
+                                traverse::closest_careful(scene, stack, lane, ray, w)
+                            })
                         } else {
                             fast
                         }
                     }
-                    _ => {
-                        let mut brute = traverse::Work::default();
-                        let c = traverse::closest_brute(
-                            &self.bvh.tri_groups,
-                            &self.bvh.spheres,
-                            (o, d, t_max),
-                            &mut brute,
-                        );
-                        work.add(brute);
-                        c
-                    }
+                    _ => work.walk_again(|w| {
+                        let (groups, spheres) = (&self.bvh.tri_groups, &self.bvh.spheres);
+                        traverse::closest_brute(groups, spheres, (o, d, t_max), w)
+                    }),
                 };
                 hits.record(i, &c);
             }
@@ -787,17 +763,9 @@ impl ClosestBatch<'_> {
         if WALK != traverse::PLAIN && work.unsure {
             // It met slivers (traverse::group_closest): walked again.
             best = traverse::ClosestLanes::none(t_max);
-            let mut again = traverse::Work::default();
-            packet::closest_careful(
-                scene,
-                stack,
-                packet,
-                active,
-                &mut best,
-                &mut again,
-                &mut visits,
-            );
-            work.add(again);
+            work.walk_again(|w| {
+                packet::closest_careful(scene, stack, packet, active, &mut best, w, &mut visits)
+            });
         }
         self.hits.record_lanes(start..end, &best);
         self.nodes += slot_nodes(visits, active, end - start);

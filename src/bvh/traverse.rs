@@ -427,11 +427,18 @@ pub(crate) struct Work {
 }
 
 impl Work {
-    /// Adds the counts of `other` (a second walk of the same ray).
+    /// Runs `walk` (a second walk of the same ray, or brute force) on
+    /// counters of its own and adds them to these: handing these
+    /// counters themselves to a call kept them in memory through the
+    /// first walk's loop (CBbunny's diffuse rays −16%, PERF.md, BVH,
+    /// session of 2026-11-28).
     #[inline(always)]
-    pub fn add(&mut self, other: Work) {
-        self.nodes += other.nodes;
-        self.prims += other.prims;
+    pub fn walk_again<T>(&mut self, walk: impl FnOnce(&mut Work) -> T) -> T {
+        let mut again = Work::default();
+        let result = walk(&mut again);
+        self.nodes += again.nodes;
+        self.prims += again.prims;
+        result
     }
 }
 
