@@ -207,7 +207,6 @@ fn nonsense_values_are_refused_with_a_usage_hint() {
         vec!["-f", "no/such/folder/out.exr", scene],
         vec!["-f", "out.jpg", scene],
         vec!["--shading", "wireframe", scene],
-        vec!["-e", "sky.exr", scene],
         vec!["-p", "0", "0", "801", "10", scene],
         vec!["-r", "65536", "65536", scene],
         // A list flag given twice, as any flag: an error, not its first list.
@@ -496,6 +495,74 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
         "error: -r 8000 8000: the reference and a render, and the sums of the pixels being \
          rendered, need 3.5 GiB, and ",
     );
+}
+
+/// `-e` lights a scene with a latitude–longitude EXR, which camera rays
+/// see too: the fixture without its lamp, under a uniform map, shows the
+/// map's colour exactly wherever it misses the objects, lit objects
+/// elsewhere, and no warning that nothing lights it. A map that cannot be
+/// used is one line naming the file (and the texel at fault), exit 1, and
+/// no image.
+#[test]
+fn environment_maps_light_the_scene_and_bad_ones_are_named() {
+    use glam::Vec3;
+    let unlit = include_str!("fixtures/minimal.dae").replace("<instance_light url=\"#lamp\"/>", "");
+    let colour = Vec3::new(0.25, 0.5, 1.0);
+    // One row of texels (the renderer's own EXR writer would turn a NaN to 0).
+    let write_map = |name: &str, texels: &[Vec3]| {
+        let path = scratch(name);
+        exr::prelude::write_rgb_file(&path, texels.len(), 1, |x, _| texels[x].into()).unwrap();
+        path
+    };
+    let sky = write_map("uniform_sky.exr", &[colour; 4]);
+    let args = [
+        "-e",
+        sky.to_str().unwrap(),
+        "-s",
+        "4",
+        "-m",
+        "2",
+        "--no-adaptive",
+    ];
+    let (out, err) = render_text("under_sky", &unlit, &args);
+    assert!(!err.contains("no light"), "{err}");
+    let image = read_image(&out).unwrap();
+    let seen = image.pixels.iter().filter(|p| **p == colour).count();
+    let lit = image
+        .pixels
+        .iter()
+        .filter(|p| **p != colour && p.max_element() > 0.0)
+        .count();
+    assert!(
+        seen > 10_000 && lit > 1_000,
+        "{seen} sky pixels, {lit} lit ones"
+    );
+
+    let nan = write_map("nan_sky.exr", &[colour, Vec3::new(1.0, f32::NAN, 0.0)]);
+    let text = scratch("not_exr.exr");
+    std::fs::write(&text, "not an image").unwrap();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
+    for (map, says) in [
+        (scratch("missing_sky.exr"), "cannot read EXR".to_string()),
+        (
+            PathBuf::from("sky.hdr"),
+            "environment maps are read from OpenEXR files (.exr)".into(),
+        ),
+        (text, "not an OpenEXR file".into()),
+        (
+            nan,
+            "texel (1, 0) (column, row from the top) is 1 NaN 0".into(),
+        ),
+    ] {
+        let out = scratch("bad_sky.png");
+        let o = render_to(scene, &out, &["-q", "-e", map.to_str().unwrap()]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        let named = format!("error: -e {}: ", map.display());
+        assert!(err.starts_with(&named) && err.contains(&says), "{err}");
+        assert!(!out.exists(), "{err}");
+    }
 }
 
 #[test]

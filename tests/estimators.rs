@@ -764,11 +764,16 @@ fn images_are_bit_identical_across_threads_and_batch_sizes() {
     // (a real BVH: camera rays of a pixel go through packet traversal,
     // grouped differently by each batch size).
     let (floor, _) = square_light_scene(false, 4.0);
-    let knot = wavepath::scene::collada::load_file(std::path::Path::new(concat!(
+    let mut knot = wavepath::scene::collada::load_file(std::path::Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/scenes/torus_knot.dae"
     )))
     .unwrap();
+    // Under an environment map too, whose samples take random bits of
+    // their own.
+    let sky: Vec<Vec3> = (0..8).map(|i| Vec3::new(0.1 * i as f32, 0.3, 0.05)).collect();
+    let sky = wavepath::scene::EnvironmentMap::new(4, 2, sky).unwrap();
+    knot.lights.push(Light::Environment(std::sync::Arc::new(sky)));
     // Each setting also with what draws more random numbers or drops
     // pixels: roulette at every vertex from the second, the adaptive mask,
     // hemisphere probes, a thin lens.

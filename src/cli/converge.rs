@@ -404,7 +404,7 @@ pub fn time_to_reach(points: &[(f64, f64)], target: f64) -> Option<(f64, bool)> 
 /// Render flags that mean nothing here (the id of each in [`Args`], and
 /// why): given, they are refused rather than ignored, and `--help` does
 /// not list them.
-const NOT_USED: [(&str, &str); 7] = [
+const NOT_USED: [(&str, &str); 6] = [
     (
         "output",
         "converge: -f is not used; name the reference with --ref, outputs with --csv and --plot",
@@ -428,10 +428,6 @@ const NOT_USED: [(&str, &str); 7] = [
     (
         "no_adaptive",
         "converge: --no-adaptive is not needed; sampling is never adaptive here",
-    ),
-    (
-        "envmap",
-        "converge: -e is not used; environment maps are not supported yet",
     ),
 ];
 

@@ -221,6 +221,10 @@ pub fn write(scene: &Scene, settings: &Export, dir: &Path) -> Result<Vec<String>
             }
             // Already geometry: the emissive rectangle written above.
             Light::Area { .. } => {}
+            Light::Environment(_) => warnings.push(
+                "the environment map (-e) is not exported: the Mitsuba scene has no light from it"
+                    .into(),
+            ),
             Light::Hemisphere { radiance } => {
                 let name = format!("sky{}.exr", sky_maps);
                 sky_maps += 1;

@@ -28,7 +28,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::{CommandFactory, Parser};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -38,7 +38,7 @@ use crate::bvh::Bvh;
 use crate::film::adaptive::Adaptive;
 use crate::film::{Tile, output};
 use crate::integrator::{Settings, View};
-use crate::scene::{camera_file, collada};
+use crate::scene::{EnvironmentMap, Light, camera_file, collada};
 use crate::wavefront::{RenderSettings, Renderer};
 
 /// The scene rendered when none is named: `scenes/cornell.dae`, built in.
@@ -125,12 +125,6 @@ fn validate(args: &Args, fail: fn(String) -> !) -> (RenderSettings, PathBuf, out
         .region
         .as_deref()
         .map(|r| region(r, args.resolution[0], args.resolution[1]).unwrap_or_else(|e| fail(e)));
-    if let Some(e) = &args.envmap {
-        fail(format!(
-            "-e {}: environment maps are not supported yet",
-            e.display()
-        ));
-    }
     let output = args.output.clone().unwrap_or_else(|| {
         let stem = scene_path(args)
             .file_stem()
@@ -317,10 +311,14 @@ fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
         }
         None => None,
     };
+    let environment = args.envmap.as_deref().map(load_environment).transpose()?;
     let mut scene = match &args.scene {
         Some(path) => collada::load_file(path)?,
         None => collada::load_str(DEFAULT_SCENE, std::path::Path::new(DEFAULT_SCENE_NAME))?,
     };
+    if let Some(map) = environment {
+        scene.lights.push(Light::Environment(Arc::new(map)));
+    }
     if let (Some(camera), Some(file)) = (camera, &args.camera) {
         // What the far clipping plane cuts off is the file's camera's
         // business now, not the scene's.
@@ -341,6 +339,24 @@ fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
         scene.camera = camera;
     }
     Ok(scene)
+}
+
+/// The environment map of `-e`: a latitude–longitude OpenEXR image, as
+/// the CS184 renderer reads (read before the scene, which may be large).
+fn load_environment(path: &std::path::Path) -> Result<EnvironmentMap> {
+    let exr = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if !exr {
+        bail!(
+            "-e {}: environment maps are read from OpenEXR files (.exr)",
+            path.display()
+        );
+    }
+    let image = output::read_image(path).map_err(|e| anyhow::anyhow!("-e {e:#}"))?;
+    EnvironmentMap::new(image.width, image.height, image.pixels)
+        .map_err(|e| anyhow::anyhow!("-e {}: {e}", path.display()))
 }
 
 /// The text of a `-c` file. Such files hold 28 or 30 numbers, so at most

@@ -55,6 +55,7 @@ fn emitters(lights: &LightSet) -> String {
             LightSource::Directional { .. } => (("directional light", "directional lights"), 1),
             LightSource::Rectangle { .. } => (("area light", "area lights"), 1),
             LightSource::Hemisphere { .. } => (("hemisphere light", "hemisphere lights"), 1),
+            LightSource::Environment(_) => (("environment map", "environment maps"), 1),
             LightSource::Sphere { .. } => (("emissive sphere", "emissive spheres"), 1),
             LightSource::Mesh { triangles, .. } => {
                 (("emissive triangle", "emissive triangles"), triangles.len())
@@ -264,8 +265,8 @@ mod tests {
         };
         let set = |sources: Vec<LightSource>, dark: usize| LightSet {
             sources,
-            sky: Vec3::ZERO,
             dark,
+            ..LightSet::default()
         };
         assert_eq!(
             emitters(&set(vec![point.clone(), mesh(3), point, sphere], 2)),

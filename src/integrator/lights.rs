@@ -5,13 +5,17 @@
 //! divided by the solid-angle pdf of that choice. Emissive meshes are one
 //! source per scene, their triangles chosen in proportion to area.
 
+use std::sync::Arc;
+
 use glam::Vec3;
 use wide::f32x8;
 
 use super::bsdf::Surface;
+use super::environment::EnvironmentLight;
 use crate::bvh::END_CLEARANCE;
 use crate::lanes::{LANES, Vec3x8, normalize_any_scale};
 use crate::ray::{gamma, offset_by, offset_by_x8};
+use crate::sampling::slots::SlotTable;
 use crate::sampling::warp;
 use crate::scene::{Light, Scene};
 
@@ -64,6 +68,8 @@ pub enum LightSource {
         radius: f32,
         radiance: Vec3,
     },
+    /// An environment map, sampled in proportion to its light.
+    Environment(Arc<EnvironmentLight>),
     /// Two-sided emissive triangles, sampled by area.
     Mesh {
         /// Vertex positions per triangle.
@@ -86,9 +92,10 @@ impl LightSource {
     }
 
     /// Whether [`sample`](Self::sample) uses its 32 random bits `pick`
-    /// (to pick a triangle); delta lights use none of them.
+    /// (to pick a triangle, or a point in an environment map's cell);
+    /// the other lights use none of them.
     pub fn uses_pick(&self) -> bool {
-        matches!(self, LightSource::Mesh { .. })
+        matches!(self, LightSource::Mesh { .. } | LightSource::Environment(_))
     }
 
     /// Draws a connection from surface point `p` (normal `n`) with random
@@ -114,6 +121,16 @@ impl LightSource {
                 radius,
                 radiance,
             } => sample_sphere(p, origin, n, *center, *radius, *radiance, u, v),
+            LightSource::Environment(environment) => {
+                let (direction, weight) = environment.sample(u, v, pick);
+                let cos_surface = n.dot(direction);
+                (cos_surface > 0.0).then_some(LightSample {
+                    direction,
+                    t_max: f32::INFINITY,
+                    weight,
+                    cos_surface,
+                })
+            }
             LightSource::Mesh {
                 triangles,
                 radiance,
@@ -228,7 +245,9 @@ impl LightSource {
                     valid: !(d.y.simd_le(zero) | cos.simd_le(zero)).to_bitmask() & 0xff,
                 }
             }
-            LightSource::Sphere { .. } | LightSource::Mesh { .. } => return None,
+            LightSource::Sphere { .. } | LightSource::Mesh { .. } | LightSource::Environment(_) => {
+                return None;
+            }
         })
     }
 }
@@ -414,6 +433,8 @@ pub struct LightSet {
     pub sources: Vec<LightSource>,
     /// Summed radiance of hemisphere lights, seen by rays that escape upward.
     pub sky: Vec3,
+    /// The environment map, seen by every ray that escapes.
+    pub environment: Option<Arc<crate::scene::EnvironmentMap>>,
     /// The scene's lights of colour 0, left out of `sources`. Uniform
     /// hemisphere sampling still counts them: its N is lights × `-l`.
     pub dark: usize,
@@ -463,6 +484,13 @@ impl LightSet {
                     set.sky += radiance;
                     LightSource::Hemisphere { radiance }
                 }
+                Light::Environment(ref map) => {
+                    set.environment = Some(map.clone());
+                    // `emits` above: a map that sends light has tables.
+                    LightSource::Environment(Arc::new(
+                        EnvironmentLight::new(map.clone()).expect("the map emits"),
+                    ))
+                }
             });
         }
         // Emissive spheres.
@@ -511,24 +539,35 @@ impl LightSet {
     pub fn is_empty(&self) -> bool {
         self.sources.is_empty()
     }
+
+    /// Radiance arriving along `d` (any length but 0) from beyond the
+    /// scene: the environment map's, and, for rays other than camera rays,
+    /// the sky's above the horizon (the reference's hemisphere light is
+    /// not seen by the camera; its environment map is).
+    #[inline]
+    pub fn escaped(&self, d: Vec3, camera_ray: bool) -> Vec3 {
+        let sky = if !camera_ray && d.y > 0.0 {
+            self.sky
+        } else {
+            Vec3::ZERO
+        };
+        match &self.environment {
+            Some(map) => sky + map.radiance(d),
+            None => sky,
+        }
+    }
 }
 
 /// How an emissive mesh's light samples choose a triangle: by area, from
-/// 32 random bits, with each triangle's probability known exactly.
-///
-/// The bits index 2³² equal slots. Triangle `i` owns the slots up to
-/// `ends[i]` from the end of the one before: about its share of the area,
-/// and at least one, so every triangle that emits can be chosen. A sample
-/// is weighted by the share of slots its triangle owns (its area over its
-/// probability), not by the area share those slots approximate, so the
-/// estimate is unbiased however the shares round. (A cumulative table of
-/// f32 searched with a 24-bit draw gave the triangles of a
-/// million-triangle mesh probabilities up to ±6% off their weights, and
-/// left triangles under 2⁻²⁴ of the area out altogether.)
+/// 32 random bits (a [`SlotTable`] of 2³² slots), with each triangle's
+/// probability known exactly. A sample is weighted by its triangle's area
+/// over that probability, so the estimate is unbiased however the shares
+/// round. (A cumulative table of f32 searched with a 24-bit draw gave the
+/// triangles of a million-triangle mesh probabilities up to ±6% off their
+/// weights, and left triangles under 2⁻²⁴ of the area out altogether.)
 #[derive(Clone, Debug)]
 pub struct TrianglePick {
-    /// End (exclusive) of each triangle's slots; the last is 2³².
-    ends: Vec<u64>,
+    slots: SlotTable,
     /// Each triangle's area divided by its probability of being chosen.
     area_over_probability: Vec<f32>,
 }
@@ -540,37 +579,21 @@ impl TrianglePick {
     /// and fewer than 2³²).
     pub fn by_area(areas: &[f64]) -> TrianglePick {
         let n = areas.len() as u64;
-        assert!(n > 0 && n < Self::SLOTS, "{n} triangles");
-        let total: f64 = areas.iter().sum();
-        // Rounded cumulative shares, the last exactly 2³²; then no end
-        // later than leaves a slot to each triangle after it, and none
-        // earlier than one slot past the end before it.
-        let mut cumulative = 0.0;
-        let mut ends: Vec<u64> = areas
-            .iter()
-            .map(|&area| {
-                cumulative += area;
-                (cumulative / total * Self::SLOTS as f64).round() as u64
-            })
-            .collect();
-        *ends.last_mut().unwrap() = Self::SLOTS;
-        let mut previous = 0;
-        for (i, end) in ends.iter_mut().enumerate() {
-            let after = n - 1 - i as u64;
-            *end = (*end).min(Self::SLOTS - after).max(previous + 1);
-            previous = *end;
-        }
-        let mut start = 0;
+        assert!(
+            n > 0 && n < Self::SLOTS && areas.iter().all(|&a| a > 0.0),
+            "{n} triangles"
+        );
+        let slots = SlotTable::new(areas, Self::SLOTS).expect("positive areas");
         let area_over_probability = areas
             .iter()
-            .zip(&ends)
-            .map(|(&area, &end)| {
-                let slots = end - std::mem::replace(&mut start, end);
-                (area * Self::SLOTS as f64 / slots as f64) as f32
+            .enumerate()
+            .map(|(i, &area)| {
+                let owned = slots.slots(i);
+                (area * Self::SLOTS as f64 / (owned.end - owned.start) as f64) as f32
             })
             .collect();
         TrianglePick {
-            ends,
+            slots,
             area_over_probability,
         }
     }
@@ -578,14 +601,12 @@ impl TrianglePick {
     /// The triangle that the random bits `pick` choose.
     #[inline]
     pub fn triangle(&self, pick: u32) -> usize {
-        // The last end is 2³², past every pick.
-        self.ends.partition_point(|&end| end <= u64::from(pick))
+        self.slots.choose(u64::from(pick))
     }
 
     /// The probability that triangle `i` is chosen.
     pub fn probability(&self, i: usize) -> f64 {
-        let start = if i == 0 { 0 } else { self.ends[i - 1] };
-        (self.ends[i] - start) as f64 / Self::SLOTS as f64
+        self.slots.probability(i)
     }
 }
 

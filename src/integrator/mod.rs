@@ -6,6 +6,7 @@
 //! for next-event estimation, [`bsdf`] says how surfaces reflect and emit (the shade stage samples them).
 
 pub mod bsdf;
+pub mod environment;
 pub mod lights;
 pub mod settings;
 

@@ -5,6 +5,7 @@
 //! how work is split over threads or batches.
 
 pub mod rng;
+pub mod slots;
 pub mod warp;
 
 pub use rng::SampleStream;

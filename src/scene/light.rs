@@ -1,7 +1,10 @@
 //! Light sources, in world space, as the scene file defines them.
 
+use std::sync::Arc;
+
 use glam::Vec3;
 
+use super::EnvironmentMap;
 use crate::lanes::normalize_any_scale;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -21,17 +24,21 @@ pub enum Light {
     },
     /// Uniform sky over the upper (+y) hemisphere; invisible to camera rays.
     Hemisphere { radiance: Vec3 },
+    /// Radiance from every direction, from a latitude–longitude map
+    /// (`-e`); seen by camera rays too, as in the CS184 renderer.
+    Environment(Arc<EnvironmentMap>),
 }
 
 impl Light {
     /// Whether the light sends out anything: a colour of 0 0 0 (negative
     /// components are refused when loading) lights nothing.
     pub fn emits(&self) -> bool {
-        let colour = match *self {
-            Light::Point { intensity, .. } => intensity,
+        let colour = match self {
+            Light::Environment(map) => return map.emits(),
+            Light::Point { intensity, .. } => *intensity,
             Light::Directional { radiance, .. }
             | Light::Area { radiance, .. }
-            | Light::Hemisphere { radiance } => radiance,
+            | Light::Hemisphere { radiance } => *radiance,
         };
         colour.max_element() > 0.0
     }
@@ -42,6 +49,7 @@ impl Light {
             Light::Directional { .. } => "directional",
             Light::Area { .. } => "area",
             Light::Hemisphere { .. } => "hemisphere",
+            Light::Environment(_) => "environment map",
         }
     }
 

@@ -7,11 +7,13 @@
 pub mod camera;
 pub mod camera_file;
 pub mod collada;
+pub mod environment;
 pub mod geometry;
 pub mod light;
 pub mod material;
 
 pub use camera::{Camera, CameraView, Perspective};
+pub use environment::EnvironmentMap;
 pub use geometry::{Aabb, Geometry, Primitive, Spheres, Triangles};
 pub use light::Light;
 pub use material::{Material, NamedMaterial};

@@ -405,7 +405,7 @@ impl<'a> Renderer<'a> {
                     probe_hits,
                     &self.scene.geometry,
                     &self.surfaces,
-                    self.lights.sky,
+                    &self.lights,
                     paths,
                     &mut stats.traversal,
                 );

@@ -253,14 +253,15 @@ fn shade_diffuse(
     }
 }
 
-/// A ray that left the scene: only the sky (hemisphere lights) can be seen,
-/// and only by rays that were not camera rays.
+/// A ray that left the scene sees what lies beyond it (the environment
+/// map; the sky, unless it is a camera ray) if it is a camera ray or left
+/// a delta bounce: after any other bounce, next-event estimation has
+/// counted that light already.
 fn on_miss(inputs: &ShadeInputs, paths: &mut Paths, i: usize) {
     let depth = paths.depth[i];
-    let settings = inputs.settings;
-    if paths.specular[i] && depth > 0 && paths.rays.dir_y[i] > 0.0 && settings.counts_bounce(depth)
-    {
-        paths.radiance[i] += paths.throughput[i] * inputs.lights.sky;
+    if (depth == 0 || paths.specular[i]) && inputs.settings.counts_bounce(depth) {
+        let d = paths.rays.direction(i);
+        paths.radiance[i] += paths.throughput[i] * inputs.lights.escaped(d, depth == 0);
     }
 }
 
@@ -479,8 +480,8 @@ mod tests {
         let blocks = |sources: Vec<LightSource>, dark: usize, hemisphere: bool| {
             let lights = LightSet {
                 sources,
-                sky: Vec3::ZERO,
                 dark,
+                ..LightSet::default()
             };
             let settings = Settings {
                 hemisphere,

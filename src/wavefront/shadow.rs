@@ -6,6 +6,7 @@ use glam::Vec3;
 
 use crate::bvh::{Bvh, TraversalStats};
 use crate::integrator::bsdf::Surface;
+use crate::integrator::lights::LightSet;
 use crate::ray::Hits;
 use crate::scene::Geometry;
 
@@ -28,7 +29,7 @@ pub fn resolve_shadow_rays(
 }
 
 /// Adds, for every probe ray, its weight times the radiance emitted toward
-/// it by what it hits (or by the sky, if it escapes upward).
+/// it by what it hits (or from beyond the scene, if it escapes).
 #[allow(clippy::too_many_arguments)]
 pub fn resolve_probe_rays(
     bvh: &Bvh,
@@ -36,7 +37,7 @@ pub fn resolve_probe_rays(
     hits: &mut Hits,
     geometry: &Geometry,
     surfaces: &[Surface],
-    sky: Vec3,
+    lights: &LightSet,
     paths: &mut Paths,
     stats: &mut TraversalStats,
 ) {
@@ -44,7 +45,7 @@ pub fn resolve_probe_rays(
     for k in 0..probes.len() {
         let d = probes.rays.direction(k);
         let emitted = if !hits.is_hit(k) {
-            if d.y > 0.0 { sky } else { Vec3::ZERO }
+            lights.escaped(d, false)
         } else {
             let prim = hits.prim[k];
             match surfaces[geometry.material(prim) as usize] {

@@ -1,0 +1,202 @@
+//! An environment map: radiance arriving from infinitely far away, looked
+//! up by direction in a latitude–longitude image (`-e`).
+//!
+//! The mapping is the CS184 renderer's, so its maps light a scene the same
+//! way there and here: the polar angle θ = acos(y) runs down the rows
+//! (row 0 looks straight up, +y), the azimuth φ = atan2(−z, x) + π along
+//! the columns, so the middle column looks down −x and the left and right
+//! edges meet at +x. A direction's radiance is the bilinear interpolation
+//! of the four nearest texel centres, wrapping around in φ and clamped at
+//! the poles.
+
+use glam::Vec3;
+
+/// A latitude–longitude radiance map.
+#[derive(Clone, PartialEq)]
+pub struct EnvironmentMap {
+    width: u32,
+    height: u32,
+    /// Linear RGB radiance, row-major, row 0 at the top (θ = 0).
+    texels: Vec<Vec3>,
+}
+
+impl std::fmt::Debug for EnvironmentMap {
+    /// The size only: a map holds millions of texels.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "EnvironmentMap({}x{})", self.width, self.height)
+    }
+}
+
+impl EnvironmentMap {
+    /// The map of `width × height` texels (row 0 at the top). Radiance must
+    /// be finite and not negative: the error names the first texel that is
+    /// not, by column and row.
+    pub fn new(width: u32, height: u32, texels: Vec<Vec3>) -> Result<EnvironmentMap, String> {
+        if width == 0 || height == 0 {
+            return Err(format!(
+                "the map is {width}x{height} texels; it needs at least one"
+            ));
+        }
+        assert_eq!(texels.len(), width as usize * height as usize);
+        if let Some(i) = texels
+            .iter()
+            .position(|t| !(t.is_finite() && t.min_element() >= 0.0))
+        {
+            let (x, y) = (i % width as usize, i / width as usize);
+            return Err(format!(
+                "texel ({x}, {y}) (column, row from the top) is {} {} {}; radiance must be a \
+                 finite number ≥ 0",
+                texels[i].x, texels[i].y, texels[i].z
+            ));
+        }
+        Ok(EnvironmentMap {
+            width,
+            height,
+            texels,
+        })
+    }
+
+    /// A map of one colour everywhere.
+    pub fn uniform(radiance: Vec3) -> Result<EnvironmentMap, String> {
+        EnvironmentMap::new(1, 1, vec![radiance])
+    }
+
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Texel `(x, y)`: column `x` (wrapping around), row `y` from the top
+    /// (clamped to the map).
+    #[inline]
+    pub fn texel(&self, x: i64, y: i64) -> Vec3 {
+        let x = x.rem_euclid(i64::from(self.width)) as usize;
+        let y = y.clamp(0, i64::from(self.height) - 1) as usize;
+        self.texels[y * self.width as usize + x]
+    }
+
+    /// Whether any texel is brighter than black.
+    pub fn emits(&self) -> bool {
+        self.texels.iter().any(|t| t.max_element() > 0.0)
+    }
+
+    /// Radiance arriving from direction `d` (any length but 0).
+    pub fn radiance(&self, d: Vec3) -> Vec3 {
+        let (x, y) = self.position(d);
+        self.at(x, y)
+    }
+
+    /// Where direction `d` falls on the map, in texels: `x` in
+    /// `[0, width]` along φ, `y` in `[0, height]` along θ.
+    pub fn position(&self, d: Vec3) -> (f64, f64) {
+        let d = d.as_dvec3();
+        let d = d / d.length();
+        let theta = d.y.clamp(-1.0, 1.0).acos();
+        let phi = (-d.z).atan2(d.x) + std::f64::consts::PI;
+        (
+            phi / std::f64::consts::TAU * f64::from(self.width),
+            theta / std::f64::consts::PI * f64::from(self.height),
+        )
+    }
+
+    /// The bilinear interpolation at map position `(x, y)` (in texels;
+    /// texel centres at half-integers).
+    pub fn at(&self, x: f64, y: f64) -> Vec3 {
+        let (fx, fy) = (x - 0.5, (y - 0.5).clamp(0.0, f64::from(self.height) - 1.0));
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = ((fx - x0) as f32, (fy - y0) as f32);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let row = |y| self.texel(x0, y) * (1.0 - tx) + self.texel(x0 + 1, y) * tx;
+        row(y0) * (1.0 - ty) + row(y0 + 1) * ty
+    }
+}
+
+/// The unit direction at polar angle θ (its cosine `cos_theta`) and
+/// azimuth `phi`, in the map's convention (see the module docs).
+#[inline]
+pub fn direction(cos_theta: f32, phi: f32) -> Vec3 {
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let (sin_phi, cos_phi) = phi.sin_cos();
+    Vec3::new(-cos_phi * sin_theta, cos_theta, sin_phi * sin_theta)
+}
+
+/// The azimuth of a column position `x` (in texels) of a map `width` wide.
+#[inline]
+pub fn azimuth(x: f64, width: u32) -> f32 {
+    (x / f64::from(width) * std::f64::consts::TAU) as f32
+}
+
+/// Cosine of the polar angle at row position `y` of a map `height` tall.
+#[inline]
+pub fn polar_cosine(y: f64, height: u32) -> f64 {
+    (y / f64::from(height) * std::f64::consts::PI).cos()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Row 0 looks up, the last row down; the middle column looks along
+    /// +x, three quarters of the way along −z, a quarter along +z, the
+    /// edges along −x (φ = atan2(−z, x) + π); and the direction of a
+    /// position maps back to that position.
+    #[test]
+    fn directions_and_positions_agree_with_the_reference_mapping() {
+        let map = EnvironmentMap::new(8, 4, vec![Vec3::ZERO; 32]).unwrap();
+        let close = |(x, y): (f64, f64), (ex, ey): (f64, f64)| {
+            (x - ex).abs() < 1e-9 && (y - ey).abs() < 1e-9
+        };
+        assert!(close(map.position(Vec3::Y), (map.position(Vec3::Y).0, 0.0)));
+        assert!(close(
+            map.position(Vec3::NEG_Y),
+            (map.position(Vec3::NEG_Y).0, 4.0)
+        ));
+        // +x: φ = atan2(0, 1) + π = π, the middle column.
+        assert!(close(map.position(Vec3::X), (4.0, 2.0)));
+        // −z: φ = atan2(1, 0) + π = 3π/2; +z: π/2.
+        assert!(close(map.position(Vec3::NEG_Z), (6.0, 2.0)));
+        assert!(close(map.position(Vec3::Z), (2.0, 2.0)));
+        for &(x, y) in &[(0.3, 0.2), (4.0, 2.0), (7.9, 3.7), (2.5, 1.0)] {
+            let d = direction(polar_cosine(y, 4) as f32, azimuth(x, 8));
+            let (bx, by) = map.position(d);
+            assert!(
+                (bx - x).abs() < 1e-5 && (by - y).abs() < 1e-5,
+                "({x}, {y}) -> {d} -> ({bx}, {by})"
+            );
+        }
+    }
+
+    /// At texel centres the map returns the texel; halfway between two
+    /// it returns their mean, across the φ seam too; past the centres of
+    /// the first and last rows it holds their value.
+    #[test]
+    fn lookups_interpolate_between_texel_centres() {
+        let texels: Vec<Vec3> = (0..12).map(|i| Vec3::splat(i as f32)).collect();
+        let map = EnvironmentMap::new(4, 3, texels).unwrap();
+        assert_eq!(map.at(1.5, 1.5), Vec3::splat(5.0));
+        assert_eq!(map.at(2.0, 1.5), Vec3::splat(5.5));
+        assert_eq!(map.at(1.5, 2.0), Vec3::splat(7.0));
+        // Column 3 and column 0 of row 1 (7 and 4), across the seam.
+        assert_eq!(map.at(4.0, 1.5), Vec3::splat(5.5));
+        assert_eq!(map.at(0.0, 1.5), Vec3::splat(5.5));
+        assert_eq!(map.at(1.5, 0.0), Vec3::splat(1.0));
+        assert_eq!(map.at(1.5, 3.0), Vec3::splat(9.0));
+    }
+
+    #[test]
+    fn bad_texels_are_named() {
+        let mut texels = vec![Vec3::ONE; 6];
+        texels[4] = Vec3::new(1.0, f32::NAN, 0.0);
+        let e = EnvironmentMap::new(3, 2, texels.clone()).unwrap_err();
+        assert!(
+            e.starts_with("texel (1, 1) (column, row from the top) is 1 NaN 0"),
+            "{e}"
+        );
+        texels[4] = Vec3::new(1.0, -0.5, 0.0);
+        assert!(EnvironmentMap::new(3, 2, texels).is_err());
+        assert!(EnvironmentMap::new(0, 2, vec![]).is_err());
+    }
+}
