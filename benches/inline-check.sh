@@ -22,9 +22,10 @@ HOT='^wavepath::(bvh::Bvh::(intersect|occluded)(_walk)?|bvh::traverse::Scene::le
 # slivers' distances, second walks of rays that met slivers, brute force,
 # a whole batch's walk called once per batch, a packet's sphere leaves,
 # empty batch slots, growing a buffer, unwinding), the packet leaf test
-# (kept apart so its registers do not crowd the single-ray loop), and the
-# wave's draws (one call per wave).
-ALLOWED='refine_edges_f64|packet::closest::\{\{closure\}\}|Bvh::(intersect|occluded)_walk|group_slivers|ray_slivers|_careful|_brute|leaf_closest_packet|miss_slot|VertexDraws::draw|RawVec|finish_grow|_Unwind_Resume|^mem(cpy|set|move)|panic|handle_alloc_error|capacity_overflow'
+# (kept apart so its registers do not crowd the single-ray loop), the
+# wave's draws (one call per wave), and the environment map's weights
+# (one call per eight paths, in scenes with a map).
+ALLOWED='share_environment|refine_edges_f64|packet::closest::\{\{closure\}\}|Bvh::(intersect|occluded)_walk|group_slivers|ray_slivers|_careful|_brute|leaf_closest_packet|miss_slot|VertexDraws::draw|RawVec|finish_grow|_Unwind_Resume|^mem(cpy|set|move)|panic|handle_alloc_error|capacity_overflow'
 
 found=$(objdump -d --no-show-raw-insn -C "$BIN" | awk -v hot="$HOT" -v allowed="$ALLOWED" '
   /^[0-9a-f]+ <.*>:$/ {

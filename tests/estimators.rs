@@ -771,9 +771,12 @@ fn images_are_bit_identical_across_threads_and_batch_sizes() {
     .unwrap();
     // Under an environment map too, whose samples take random bits of
     // their own.
-    let sky: Vec<Vec3> = (0..8).map(|i| Vec3::new(0.1 * i as f32, 0.3, 0.05)).collect();
+    let sky: Vec<Vec3> = (0..8)
+        .map(|i| Vec3::new(0.1 * i as f32, 0.3, 0.05))
+        .collect();
     let sky = wavepath::scene::EnvironmentMap::new(4, 2, sky).unwrap();
-    knot.lights.push(Light::Environment(std::sync::Arc::new(sky)));
+    knot.lights
+        .push(Light::Environment(std::sync::Arc::new(sky)));
     // Each setting also with what draws more random numbers or drops
     // pixels: roulette at every vertex from the second, the adaptive mask,
     // hemisphere probes, a thin lens.

@@ -90,6 +90,9 @@ impl EnvironmentLight {
     /// A direction drawn with the uniform numbers `(u, v)` (24-bit draws:
     /// `u` picks the row, `v` the column) and 32 random bits `jitter` (the
     /// position inside the cell), with its radiance divided by its density.
+    /// (Out of line, as is [`pdf`](Self::pdf): called once per sample, they
+    /// would only grow the shading stage's loop, which every scene runs.)
+    #[inline(never)]
     pub fn sample(&self, u: f32, v: f32, jitter: u32) -> (Vec3, Vec3) {
         // The slot a draw falls in, and where in its choice's slots: a
         // fraction in [0, 1) filled out by 16 bits of `bits`.
@@ -116,7 +119,8 @@ impl EnvironmentLight {
     }
 
     /// The density (per unit solid angle) with which [`sample`](Self::sample)
-    /// draws direction `d`.
+    /// draws direction `d` (any length but 0).
+    #[inline(never)]
     pub fn pdf(&self, d: Vec3) -> f64 {
         let (x, y) = self.map.position(d);
         let (w, h) = (self.map.width() as usize, self.map.height() as usize);
@@ -128,5 +132,26 @@ impl EnvironmentLight {
             }
             None => 0.0,
         }
+    }
+}
+
+/// Multiple importance sampling of the map against the BSDF, by Veach's
+/// power heuristic (β = 2) for `light_samples` map samples and one BSDF
+/// sample per vertex: the weights (map, BSDF) of a direction that the map
+/// draws with density `light_pdf` and the BSDF with `bsdf_pdf`. They add
+/// up to 1 wherever either density is positive, so a vertex's map samples
+/// and its continuation ray, weighted so, estimate the map's light without
+/// bias; each weight is near 1 where its own strategy is the better one —
+/// the map's on a small bright sun, the BSDF's (cosine-weighted) on an
+/// even sky, where the map's samples fall below the surface half the time.
+#[inline]
+pub fn mis_weights(light_pdf: f64, light_samples: u32, bsdf_pdf: f64) -> (f32, f32) {
+    let light = (f64::from(light_samples) * light_pdf).powi(2);
+    let bsdf = bsdf_pdf * bsdf_pdf;
+    let sum = light + bsdf;
+    if sum > 0.0 {
+        ((light / sum) as f32, (bsdf / sum) as f32)
+    } else {
+        (1.0, 0.0)
     }
 }

@@ -433,8 +433,8 @@ pub struct LightSet {
     pub sources: Vec<LightSource>,
     /// Summed radiance of hemisphere lights, seen by rays that escape upward.
     pub sky: Vec3,
-    /// The environment map, seen by every ray that escapes.
-    pub environment: Option<Arc<crate::scene::EnvironmentMap>>,
+    /// The environment map (also among `sources`), seen by rays that escape.
+    pub environment: Option<Arc<EnvironmentLight>>,
     /// The scene's lights of colour 0, left out of `sources`. Uniform
     /// hemisphere sampling still counts them: its N is lights × `-l`.
     pub dark: usize,
@@ -485,11 +485,11 @@ impl LightSet {
                     LightSource::Hemisphere { radiance }
                 }
                 Light::Environment(ref map) => {
-                    set.environment = Some(map.clone());
                     // `emits` above: a map that sends light has tables.
-                    LightSource::Environment(Arc::new(
-                        EnvironmentLight::new(map.clone()).expect("the map emits"),
-                    ))
+                    let environment =
+                        Arc::new(EnvironmentLight::new(map.clone()).expect("the map emits"));
+                    set.environment = Some(environment.clone());
+                    LightSource::Environment(environment)
                 }
             });
         }
@@ -541,19 +541,19 @@ impl LightSet {
     }
 
     /// Radiance arriving along `d` (any length but 0) from beyond the
-    /// scene: the environment map's, and, for rays other than camera rays,
-    /// the sky's above the horizon (the reference's hemisphere light is
-    /// not seen by the camera; its environment map is).
+    /// scene, counted with weight `sky` for the sky (hemisphere lights:
+    /// above the horizon; the reference's camera does not see them) and
+    /// `environment` for the environment map (its camera does).
     #[inline]
-    pub fn escaped(&self, d: Vec3, camera_ray: bool) -> Vec3 {
-        let sky = if !camera_ray && d.y > 0.0 {
+    pub fn escaped(&self, d: Vec3, sky: bool, environment: f32) -> Vec3 {
+        let sky = if sky && d.y > 0.0 {
             self.sky
         } else {
             Vec3::ZERO
         };
         match &self.environment {
-            Some(map) => sky + map.radiance(d),
-            None => sky,
+            Some(light) if environment > 0.0 => sky + light.map.radiance(d) * environment,
+            _ => sky,
         }
     }
 }

@@ -83,7 +83,9 @@ impl EnvironmentMap {
         self.texels.iter().any(|t| t.max_element() > 0.0)
     }
 
-    /// Radiance arriving from direction `d` (any length but 0).
+    /// Radiance arriving from direction `d` (any length but 0). Out of
+    /// line: the shading stage calls it only for rays that escape.
+    #[inline(never)]
     pub fn radiance(&self, d: Vec3) -> Vec3 {
         let (x, y) = self.position(d);
         self.at(x, y)

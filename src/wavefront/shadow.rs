@@ -45,7 +45,7 @@ pub fn resolve_probe_rays(
     for k in 0..probes.len() {
         let d = probes.rays.direction(k);
         let emitted = if !hits.is_hit(k) {
-            lights.escaped(d, false)
+            lights.escaped(d, true, 1.0)
         } else {
             let prim = hits.prim[k];
             match surfaces[geometry.material(prim) as usize] {
