@@ -164,7 +164,10 @@ def cornell():
     s.write("cornell.dae", translate((0, 0, 2)))
 
 
-def point_lit():
+def cube_and_ball(lit):
+    """A cube and a ball on a ground square: under a point light
+    (point_light.dae), or with no light at all, for an environment map
+    (outdoor.dae: `-e scenes/sky.exr`)."""
     s = Scene()
     s.diffuse("ground", (0.7, 0.7, 0.7))
     s.diffuse("orange", (0.8, 0.4, 0.1))
@@ -175,8 +178,73 @@ def point_lit():
     faces = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
     s.mesh("cube", v, faces, "orange", translate((-0.8, 0, 0)))
     s.sphere("ball", 0.5, (0.9, 0.5, 0.3), "teal")
-    s.light("lamp", "point", (6, 6, 6), translate((0.5, 3, 1.5)))
-    s.write("point_light.dae", translate((0, 1.2, 3)))
+    if lit:
+        s.light("lamp", "point", (6, 6, 6), translate((0.5, 3, 1.5)))
+    s.write("point_light.dae" if lit else "outdoor.dae", translate((0, 1.2, 3)))
+
+
+def sky_exr(path="sky.exr", width=512, height=256):
+    """A latitude-longitude sky for `-e` (row 0 looks up, +y; the middle
+    column along +x, as the CS184 renderer maps it): blue above, paler at
+    the horizon, a sun 35 degrees up behind the default camera's left
+    shoulder (a disc of 2 degrees radius: it spans a few texels), brown
+    ground below. Written as an OpenEXR file by hand (float RGB, one
+    zlib-compressed scanline per block), so no EXR library is needed."""
+    import struct
+    import zlib
+
+    elevation, radius = math.radians(35), math.radians(2)
+    sun = (-0.5 * math.cos(elevation), math.sin(elevation), 0.87 * math.cos(elevation))
+    norm = math.sqrt(sum(c * c for c in sun))
+    sun = [c / norm for c in sun]
+
+    def radiance(d):
+        if math.acos(max(-1.0, min(1.0, sum(a * b for a, b in zip(d, sun))))) < radius:
+            return (600.0, 540.0, 450.0)
+        if d[1] <= 0:
+            return (0.15, 0.12, 0.09)
+        t = math.sqrt(d[1])
+        horizon, zenith = (0.55, 0.58, 0.6), (0.1, 0.18, 0.4)
+        return tuple(h + (z - h) * t for h, z in zip(horizon, zenith))
+
+    def attribute(name, kind, value):
+        return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(value)) + value
+
+    channels = b"".join(c + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1) for c in (b"B", b"G", b"R")) + b"\0"
+    window = struct.pack("<iiii", 0, 0, width - 1, height - 1)
+    header = (b"\x76\x2f\x31\x01" + struct.pack("<i", 2)
+              + attribute("channels", "chlist", channels)
+              + attribute("compression", "compression", bytes([2]))  # ZIPS
+              + attribute("dataWindow", "box2i", window)
+              + attribute("displayWindow", "box2i", window)
+              + attribute("lineOrder", "lineOrder", bytes([0]))
+              + attribute("pixelAspectRatio", "float", struct.pack("<f", 1.0))
+              + attribute("screenWindowCenter", "v2f", struct.pack("<ff", 0.0, 0.0))
+              + attribute("screenWindowWidth", "float", struct.pack("<f", 1.0))
+              + b"\0")
+    blocks = []
+    for y in range(height):
+        theta = (y + 0.5) / height * math.pi
+        row = []
+        for x in range(width):
+            phi = (x + 0.5) / width * 2 * math.pi
+            d = (-math.cos(phi) * math.sin(theta), math.cos(theta), math.sin(phi) * math.sin(theta))
+            row.append(radiance(d))
+        raw = b"".join(struct.pack(f"<{width}f", *(p[c] for p in row)) for c in (2, 1, 0))
+        # OpenEXR's zip preprocessing: bytes split into even and odd
+        # halves, then each byte stored as its difference from the last.
+        split = raw[0::2] + raw[1::2]
+        delta = bytes([split[0]] + [(split[i] - split[i - 1] + 128) & 0xFF for i in range(1, len(split))])
+        packed = zlib.compress(delta, 9)
+        data = packed if len(packed) < len(raw) else raw
+        blocks.append(struct.pack("<ii", y, len(data)) + data)
+    offset = len(header) + 8 * height
+    table = b""
+    for block in blocks:
+        table += struct.pack("<Q", offset)
+        offset += len(block)
+    with open(os.path.join(HERE, path), "wb") as f:
+        f.write(header + table + b"".join(blocks))
 
 
 def torus_knot():
@@ -225,5 +293,7 @@ def torus_knot():
 
 if __name__ == "__main__":
     cornell()
-    point_lit()
+    cube_and_ball(lit=True)
+    cube_and_ball(lit=False)
+    sky_exr()
     torus_knot()

@@ -502,7 +502,8 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
 /// map's colour exactly wherever it misses the objects, lit objects
 /// elsewhere, and no warning that nothing lights it. A map that cannot be
 /// used is one line naming the file (and the texel at fault), exit 1, and
-/// no image.
+/// no image. The shipped map (`scenes/sky.exr`) lights the shipped
+/// `scenes/outdoor.dae`.
 #[test]
 fn environment_maps_light_the_scene_and_bad_ones_are_named() {
     use glam::Vec3;
@@ -536,6 +537,37 @@ fn environment_maps_light_the_scene_and_bad_ones_are_named() {
     assert!(
         seen > 10_000 && lit > 1_000,
         "{seen} sky pixels, {lit} lit ones"
+    );
+
+    // The shipped sky over the shipped lightless scene: the camera looks
+    // down on the ground, so the image's top corners show the map below
+    // its horizon (one colour there, to rounding), not the blue above it.
+    let root = env!("CARGO_MANIFEST_DIR");
+    let out = scratch("outdoor.exr");
+    let sky = format!("{root}/scenes/sky.exr");
+    let args = [
+        "-q",
+        "-s",
+        "2",
+        "-m",
+        "2",
+        "-r",
+        "480",
+        "360",
+        "-e",
+        sky.as_str(),
+    ];
+    let o = render_to(&format!("{root}/scenes/outdoor.dae"), &out, &args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let image = read_image(&out).unwrap();
+    let ground = Vec3::new(0.15, 0.12, 0.09);
+    for corner in [image.at(0, 0), image.at(479, 0)] {
+        assert!((corner - ground).abs().max_element() < 1e-6, "{corner}");
+    }
+    assert!(
+        image.at(240, 300).min_element() > 0.05,
+        "{}",
+        image.at(240, 300)
     );
 
     let nan = write_map("nan_sky.exr", &[colour, Vec3::new(1.0, f32::NAN, 0.0)]);
