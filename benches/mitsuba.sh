@@ -7,7 +7,8 @@
 #
 # usage: benches/mitsuba.sh [ROUNDS] [scene.dae]   (from the repository root)
 # env:   SPP (64), DEPTH (5), RES ("480 360"); EXPORT_ARGS, e.g. "--rr-depth 5"
-#        for Mitsuba's own roulette default; WP, the wavepath binary to time
+#        for Mitsuba's own roulette default; ENVMAP, an environment map
+#        (-e) for both, e.g. ENVMAP=scenes/sky.exr with scenes/outdoor.dae; WP, the wavepath binary to time
 #        (default: the release build, which the script makes), e.g. the
 #        profile-guided one of benches/pgo-build.sh
 #
@@ -24,6 +25,7 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 VENV=target/mitsuba-venv
 OUT=target/mitsuba-compare
 WP=${WP:-target/release/wavepath}
+ENV_ARGS=${ENVMAP:+-e $ENVMAP}
 
 fail() { echo "mitsuba.sh: $*" >&2; exit 1; }
 
@@ -46,7 +48,7 @@ fi
 cargo build --release -q
 [ -x "$WP" ] || fail "no wavepath binary at $WP (WP)"
 # shellcheck disable=SC2086
-$WP mitsuba -s "$SPP" -m "$DEPTH" -r $RES ${EXPORT_ARGS:-} "$SCENE" "$OUT"
+$WP mitsuba -s "$SPP" -m "$DEPTH" -r $RES ${EXPORT_ARGS:-} $ENV_ARGS "$SCENE" "$OUT"
 
 # Runs "$@", keeping its output in $OUT/log; prints the log and stops on failure.
 run() {
@@ -64,7 +66,7 @@ wp_walls=(); wp_renders=(); mi_walls=(); mi_renders=()
 for r in $(seq "$ROUNDS"); do
   t0=$(now)
   # shellcheck disable=SC2086
-  run $WP -s "$SPP" -m "$DEPTH" -r $RES --no-adaptive -f "$OUT/wavepath.exr" "$SCENE"
+  run $WP -s "$SPP" -m "$DEPTH" -r $RES --no-adaptive $ENV_ARGS -f "$OUT/wavepath.exr" "$SCENE"
   t1=$(now)
   wp_walls+=("$(sub "$t1" "$t0")"); wp_renders+=("$(field render)")
   t1=$(now)

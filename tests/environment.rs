@@ -43,7 +43,7 @@ fn integrate(map: &EnvironmentMap, g: impl Fn(Vec3) -> f64) -> [f64; 3] {
         let sin_theta = (1.0 - cos_theta * cos_theta).sqrt();
         for sx in 0..w * K {
             let x = (sx as f64 + 0.5) / K as f64;
-            let d = direction(cos_theta as f32, azimuth(x, w));
+            let d = direction(cos_theta, azimuth(x, w));
             let weight = g(d) * sin_theta * cell;
             let l = map.at(x, y);
             for c in 0..3 {
@@ -76,18 +76,28 @@ fn cells_are_drawn_as_often_as_their_probability() {
     let mut density = vec![0.0f64; w * h];
     for k in 0..n {
         let (u, v, bits) = draws(k);
-        let (d, weight) = light.sample(u, v, bits);
+        let s = light.sample(u, v, bits);
+        let d = s.direction;
         assert!((d.length() - 1.0).abs() < 1e-5, "{d}");
         let (x, y) = map.position(d);
         let cell = (y as usize).min(h - 1) * w + (x as usize) % w;
         counts[cell] += 1;
+        // The density and radiance it comes with are those of its
+        // direction (the radiance to the rounding of an f32 direction:
+        // ~1e-7 of a texel, where the radiance changes by up to 40 per
+        // texel).
         let p = light.pdf(d);
         density[cell] = p;
-        // The weight is the radiance over the density it was drawn with.
-        let expected = map.radiance(d) / p as f32;
         assert!(
-            (weight - expected).abs().max_element() <= 1e-4 * expected.max_element(),
-            "draw {k}: weight {weight}, L/pdf {expected}"
+            (s.pdf - p).abs() <= 1e-9 * p,
+            "draw {k}: pdf {} against {p}",
+            s.pdf
+        );
+        let radiance = map.radiance(d);
+        assert!(
+            (s.radiance - radiance).abs().max_element() <= 1e-4 * radiance.max_element() + 1e-4,
+            "draw {k}: radiance {}, the map's {radiance}",
+            s.radiance
         );
     }
     for j in 0..h {
@@ -97,7 +107,7 @@ fn cells_are_drawn_as_often_as_their_probability() {
             let cell = j * w + i;
             // The probability from the density at the cell's centre.
             let centre = direction(
-                polar_cosine(j as f64 + 0.5, h as u32) as f32,
+                polar_cosine(j as f64 + 0.5, h as u32),
                 azimuth(i as f64 + 0.5, w as u32),
             );
             let p = light.pdf(centre) * solid_angle;
@@ -143,9 +153,9 @@ fn samples_integrate_the_map_exactly() {
         let mut estimates: [Vec<f64>; 3] = Default::default();
         for k in 0..n {
             let (u, v, bits) = draws(k);
-            let (d, weight) = light.sample(u, v, bits);
+            let s = light.sample(u, v, bits);
             for (c, e) in estimates.iter_mut().enumerate() {
-                e.push(f64::from(weight[c]) * cos(d));
+                e.push(f64::from(s.radiance[c]) / s.pdf * cos(s.direction));
             }
         }
         for c in 0..3 {

@@ -21,6 +21,8 @@
 //!   `envmap` whose upper half holds the radiance, with the integrator's
 //!   `hide_emitters` on when nothing else emits (else camera rays would
 //!   see the sky where wavepath shows black: a warning says so).
+//! * An environment map (`-e`) is an `envmap`, its columns reordered for
+//!   Mitsuba's azimuth (see `write_environment`).
 //! * `-m k` (bounces) is Mitsuba's `max_depth` k + 1, and roulette starts
 //!   where wavepath's does (`rr_depth` = [`ROULETTE_DEPTH`] + 1, Mitsuba
 //!   counting depth from 1), though with Mitsuba's continuation rule; the
@@ -34,6 +36,7 @@
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
@@ -43,7 +46,7 @@ use crate::film::{Image, output};
 use crate::integrator::ROULETTE_DEPTH;
 use crate::integrator::bsdf::{self, Surface};
 use crate::lanes::normalize_any_scale;
-use crate::scene::{Light, Scene, collada};
+use crate::scene::{EnvironmentMap, Light, Scene, collada};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -59,6 +62,9 @@ pub struct MitsubaArgs {
     pub scene: PathBuf,
     /// Directory to write scene.xml and meshes/ into (created if missing)
     pub out: PathBuf,
+    /// Environment map (.exr), as wavepath's -e
+    #[arg(short = 'e', long = "envmap", value_name = "FILE")]
+    pub envmap: Option<PathBuf>,
     /// Samples per pixel
     #[arg(short = 's', long = "spp", value_name = "N", default_value_t = 64,
           value_parser = clap::value_parser!(u32).range(1..))]
@@ -90,7 +96,11 @@ pub fn run(argv: Vec<std::ffi::OsString>) -> Result<i32> {
     if let Err(e) = super::check_pixel_count(&args.resolution) {
         super::usage_error::<MitsubaArgs>(e);
     }
-    let scene = collada::load_file(&args.scene)?;
+    let mut scene = collada::load_file(&args.scene)?;
+    if let Some(file) = &args.envmap {
+        let map = super::load_environment(file)?;
+        scene.lights.push(Light::Environment(Arc::new(map)));
+    }
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
@@ -142,11 +152,16 @@ pub fn write(scene: &Scene, settings: &Export, dir: &Path) -> Result<Vec<String>
         .iter()
         .chain(&spheres.material)
         .any(|&m| emits(m));
-    let hide_sky = sky && !shapes_emit;
-    if sky && shapes_emit {
+    let environment = scene
+        .lights
+        .iter()
+        .any(|l| matches!(l, Light::Environment(_)));
+    let hide_sky = sky && !shapes_emit && !environment;
+    if sky && (shapes_emit || environment) {
         warnings.push(
             "the sky (hemisphere light) is visible to Mitsuba's camera rays, not to wavepath's: \
-             the scene also has emissive shapes, which hiding emitters would hide too"
+             the scene also has emissive shapes or an environment map, which hiding emitters \
+             would hide too"
                 .into(),
         );
     }
@@ -221,10 +236,22 @@ pub fn write(scene: &Scene, settings: &Export, dir: &Path) -> Result<Vec<String>
             }
             // Already geometry: the emissive rectangle written above.
             Light::Area { .. } => {}
-            Light::Environment(_) => warnings.push(
-                "the environment map (-e) is not exported: the Mitsuba scene has no light from it"
-                    .into(),
-            ),
+            Light::Environment(map) => {
+                let name = format!("environment{sky_maps}.exr");
+                sky_maps += 1;
+                write_environment(&meshes.join(&name), map)?;
+                if map.width() % 4 != 0 {
+                    warnings.push(format!(
+                        "the environment map is {} texels wide, not a multiple of 4: Mitsuba's \
+                         copy is resampled, and interpolates a little differently",
+                        map.width()
+                    ));
+                }
+                let _ = writeln!(
+                    xml,
+                    "  <emitter type=\"envmap\">\n    <string name=\"filename\" value=\"meshes/{name}\"/>\n  </emitter>"
+                );
+            }
             Light::Hemisphere { radiance } => {
                 let name = format!("sky{}.exr", sky_maps);
                 sky_maps += 1;
@@ -373,6 +400,24 @@ fn write_sky(path: &Path, radiance: Vec3) -> Result<()> {
         }
     }
     output::write_exr(&map, path, false)
+}
+
+/// An environment map in Mitsuba's orientation. Rows are the same (polar
+/// angle from +y down); along the columns, Mitsuba's envmap has azimuth
+/// φ' = atan2(x, −z) where wavepath's (the CS184 renderer's) has
+/// φ = atan2(−z, x) + π, so φ' = 3π/2 − φ. Each of Mitsuba's texels takes
+/// wavepath's radiance at its centre: when the width is a multiple of 4,
+/// exactly the texel it maps to, so both interpolate the same values.
+fn write_environment(path: &Path, map: &EnvironmentMap) -> Result<()> {
+    let (width, height) = (map.width(), map.height());
+    let mut image = Image::new(width, height);
+    for (row, pixels) in image.pixels.chunks_mut(width as usize).enumerate() {
+        for (column, pixel) in pixels.iter_mut().enumerate() {
+            let u = (0.75 - (column as f64 + 0.5) / f64::from(width)).rem_euclid(1.0);
+            *pixel = map.at(u * f64::from(width), row as f64 + 0.5);
+        }
+    }
+    output::write_exr(&image, path, false)
 }
 
 /// `x y z` as Mitsuba's XML writes vectors.

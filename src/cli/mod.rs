@@ -343,7 +343,7 @@ fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
 
 /// The environment map of `-e`: a latitude–longitude OpenEXR image, as
 /// the CS184 renderer reads (read before the scene, which may be large).
-fn load_environment(path: &std::path::Path) -> Result<EnvironmentMap> {
+pub(crate) fn load_environment(path: &std::path::Path) -> Result<EnvironmentMap> {
     let exr = path
         .extension()
         .and_then(|e| e.to_str())
@@ -444,8 +444,14 @@ pub fn run() -> Result<i32> {
         // The renderer's lights are every emitter (emissive meshes and
         // spheres too): without one, nothing in the scene emits, whatever -m.
         if renderer.lights.is_empty() {
+            let map = |l: &Light| matches!(l, Light::Environment(_));
             let why = if scene.lights.is_empty() {
                 "the scene has no lights"
+            } else if scene.lights.iter().all(map) {
+                "the environment map is black"
+            } else if scene.lights.iter().any(map) {
+                "no light of the scene emits (every light's colour is 0 0 0, and the \
+                 environment map is black)"
             } else {
                 "no light of the scene emits (every light's colour is 0 0 0)"
             };

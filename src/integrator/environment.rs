@@ -23,11 +23,12 @@
 //! position inside the cell takes 16 more random bits per axis, so it is
 //! uniform even in a cell that owns a single slot.
 
-use std::f64::consts::TAU;
+use std::f64::consts::{PI, TAU};
 use std::sync::Arc;
 
 use glam::Vec3;
 
+use super::lights::LightSample;
 use crate::sampling::slots::SlotTable;
 use crate::scene::EnvironmentMap;
 use crate::scene::environment::{azimuth, direction, polar_cosine};
@@ -39,10 +40,13 @@ const SLOTS: u64 = 1 << 24;
 #[derive(Clone, Debug)]
 pub struct EnvironmentLight {
     pub map: Arc<EnvironmentMap>,
-    /// Rows by their cells' summed weight.
-    rows: SlotTable,
-    /// Each row's cells by weight (`None` for a row of weight 0, never chosen).
-    columns: Vec<Option<SlotTable>>,
+    /// Where each row's slots end (a [`SlotTable`] of rows by their cells'
+    /// summed weight), as `u32`: half the memory of the table's `u64`s,
+    /// which the searches wait on when they miss the cache.
+    row_ends: Vec<u32>,
+    /// Where each cell's slots end within its row (each row a table of its
+    /// cells by weight; all 0 for a row of weight 0, never chosen).
+    column_ends: Vec<u32>,
     /// cos θ at each row's upper and lower edge: `height + 1` values from 1 to −1.
     edge_cos: Vec<f64>,
 }
@@ -51,35 +55,42 @@ impl EnvironmentLight {
     /// The sampling tables of `map`. `None` if the map sends no light.
     pub fn new(map: Arc<EnvironmentMap>) -> Option<EnvironmentLight> {
         let (w, h) = (map.width() as usize, map.height() as usize);
-        assert!(w as u64 <= SLOTS && h as u64 <= SLOTS, "{w}x{h} map");
+        // `EnvironmentMap::new` keeps both sides within the slots.
+        debug_assert!(w as u64 <= SLOTS && h as u64 <= SLOTS, "{w}x{h} map");
         let edge_cos: Vec<f64> = (0..=h).map(|j| polar_cosine(j as f64, h as u32)).collect();
         // Channel sums, then the cell means: ⅛ ¾ ⅛ along each axis,
         // wrapping around in φ and clamped at the poles as lookups are.
         let filter = |a: f64, b: f64, c: f64| 0.125 * a + 0.75 * b + 0.125 * c;
-        let sum = |x: i64, y: i64| f64::from(map.texel(x, y).element_sum());
+        let sum = |x: i64, y: i64| map.texel(x, y).as_dvec3().element_sum();
         let across: Vec<f64> = (0..h as i64)
             .flat_map(|y| (0..w as i64).map(move |x| (x, y)))
             .map(|(x, y)| filter(sum(x - 1, y), sum(x, y), sum(x + 1, y)))
             .collect();
         let at = |x: usize, y: i64| across[y.clamp(0, h as i64 - 1) as usize * w + x];
         let mut row_weights = Vec::with_capacity(h);
-        let columns = (0..h)
-            .map(|j| {
-                let band = edge_cos[j] - edge_cos[j + 1];
-                let y = j as i64;
-                let weights: Vec<f64> = (0..w)
-                    .map(|i| filter(at(i, y - 1), at(i, y), at(i, y + 1)) * band)
-                    .collect();
-                row_weights.push(weights.iter().sum::<f64>());
-                SlotTable::new(&weights, SLOTS)
-            })
-            .collect();
+        let mut column_ends = Vec::with_capacity(h * w);
+        for j in 0..h {
+            let band = edge_cos[j] - edge_cos[j + 1];
+            let y = j as i64;
+            let weights: Vec<f64> = (0..w)
+                .map(|i| filter(at(i, y - 1), at(i, y), at(i, y + 1)) * band)
+                .collect();
+            row_weights.push(weights.iter().sum::<f64>());
+            column_ends.extend(ends(SlotTable::new(&weights, SLOTS).as_ref(), w));
+        }
+        let rows = SlotTable::new(&row_weights, SLOTS)?;
         Some(EnvironmentLight {
-            rows: SlotTable::new(&row_weights, SLOTS)?,
-            columns,
+            row_ends: ends(Some(&rows), h).collect(),
+            column_ends,
             edge_cos,
             map,
         })
+    }
+
+    /// The slots of row `j`'s cells.
+    fn columns(&self, j: usize) -> &[u32] {
+        let w = self.map.width() as usize;
+        &self.column_ends[j * w..(j + 1) * w]
     }
 
     /// Solid angle of a cell of row `j`.
@@ -89,33 +100,65 @@ impl EnvironmentLight {
 
     /// A direction drawn with the uniform numbers `(u, v)` (24-bit draws:
     /// `u` picks the row, `v` the column) and 32 random bits `jitter` (the
-    /// position inside the cell), with its radiance divided by its density.
-    /// (Out of line, as is [`pdf`](Self::pdf): called once per sample, they
-    /// would only grow the shading stage's loop, which every scene runs.)
+    /// position inside the cell), with the radiance it brings and its
+    /// density. (Out of line, as are the other lookups: called once per
+    /// sample, they would only grow the shading stage's loop, which every
+    /// scene runs.)
     #[inline(never)]
-    pub fn sample(&self, u: f32, v: f32, jitter: u32) -> (Vec3, Vec3) {
+    pub fn sample(&self, u: f32, v: f32, jitter: u32) -> EnvironmentSample {
         // The slot a draw falls in, and where in its choice's slots: a
         // fraction in [0, 1) filled out by 16 bits of `bits`.
-        fn slot(draw: f32) -> u64 {
-            ((f64::from(draw) * SLOTS as f64) as u64).min(SLOTS - 1)
+        fn slot(draw: f32) -> u32 {
+            ((f64::from(draw) * SLOTS as f64) as u64).min(SLOTS - 1) as u32
         }
-        fn within(slots: std::ops::Range<u64>, slot: u64, bits: u32) -> f64 {
+        fn within(slots: std::ops::Range<u32>, slot: u32, bits: u32) -> f64 {
             let fine = (f64::from(bits & 0xffff) + 0.5) / 65536.0;
-            ((slot - slots.start) as f64 + fine) / (slots.end - slots.start) as f64
+            (f64::from(slot - slots.start) + fine) / f64::from(slots.end - slots.start)
         }
         let (su, sv) = (slot(u), slot(v));
-        let j = self.rows.choose(su);
-        let fy = within(self.rows.slots(j), su, jitter);
-        let columns = self.columns[j]
-            .as_ref()
-            .expect("a row of weight 0 owns no slot");
-        let i = columns.choose(sv);
-        let fx = within(columns.slots(i), sv, jitter >> 16);
+        let j = choose(&self.row_ends, su);
+        let fy = within(owned(&self.row_ends, j), su, jitter);
+        let columns = self.columns(j);
+        let i = choose(columns, sv);
+        let fx = within(owned(columns, i), sv, jitter >> 16);
         let cos_theta = self.edge_cos[j] + fy * (self.edge_cos[j + 1] - self.edge_cos[j]);
-        let d = direction(cos_theta as f32, azimuth(i as f64 + fx, self.map.width()));
-        let probability = self.rows.probability(j) * columns.probability(i);
-        let weight = self.cell_solid_angle(j) / probability;
-        (d, self.map.radiance(d) * weight as f32)
+        let x = i as f64 + fx;
+        let direction = direction(cos_theta, azimuth(x, self.map.width()));
+        // The map position of the direction, found from the draw rather
+        // than from the direction (one arc cosine instead of two inverse
+        // trigonometric functions).
+        let y = cos_theta.clamp(-1.0, 1.0).acos() / PI * f64::from(self.map.height());
+        let probability = probability(&self.row_ends, j) * probability(columns, i);
+        EnvironmentSample {
+            direction,
+            radiance: self.map.at(x, y),
+            pdf: probability / self.cell_solid_angle(j),
+        }
+    }
+
+    /// A light sample of the map from a point of shading normal `n` whose
+    /// diffuse continuation ray may find the map as well: the radiance over
+    /// the density times the sample's multiple-importance share against
+    /// that cosine-weighted ray, for `count` map samples per vertex.
+    /// `None` below the surface.
+    pub fn sample_shared(
+        &self,
+        n: Vec3,
+        (u, v, jitter): (f32, f32, u32),
+        count: u32,
+    ) -> Option<LightSample> {
+        let s = self.sample(u, v, jitter);
+        let cos_surface = n.dot(s.direction);
+        if cos_surface <= 0.0 {
+            return None;
+        }
+        let (share, _) = mis_weights(s.pdf, count, f64::from(cos_surface) / PI);
+        Some(LightSample {
+            direction: s.direction,
+            t_max: f32::INFINITY,
+            weight: s.radiance * (share / s.pdf as f32),
+            cos_surface,
+        })
     }
 
     /// The density (per unit solid angle) with which [`sample`](Self::sample)
@@ -123,16 +166,67 @@ impl EnvironmentLight {
     #[inline(never)]
     pub fn pdf(&self, d: Vec3) -> f64 {
         let (x, y) = self.map.position(d);
+        self.pdf_at(x, y)
+    }
+
+    /// [`pdf`](Self::pdf) at map position `(x, y)`.
+    fn pdf_at(&self, x: f64, y: f64) -> f64 {
         let (w, h) = (self.map.width() as usize, self.map.height() as usize);
         let j = (y as usize).min(h - 1);
         let i = (x as usize) % w;
-        match &self.columns[j] {
-            Some(columns) => {
-                self.rows.probability(j) * columns.probability(i) / self.cell_solid_angle(j)
-            }
-            None => 0.0,
-        }
+        probability(&self.row_ends, j) * probability(self.columns(j), i) / self.cell_solid_angle(j)
     }
+
+    /// The map's radiance arriving along `d` (any length but 0) at a
+    /// point where a ray drawn with density `bsdf_pdf` escaped, weighted
+    /// by that ray's multiple-importance share against `light_samples`
+    /// samples of the map (its whole radiance for `bsdf_pdf` = +∞: a ray
+    /// no map sample stands in for, such as a camera ray).
+    #[inline(never)]
+    pub fn escaping(&self, d: Vec3, bsdf_pdf: f32, light_samples: u32) -> Vec3 {
+        let (x, y) = self.map.position(d);
+        let radiance = self.map.at(x, y);
+        if bsdf_pdf == f32::INFINITY {
+            return radiance;
+        }
+        let (_, bsdf) = mis_weights(self.pdf_at(x, y), light_samples, f64::from(bsdf_pdf));
+        radiance * bsdf
+    }
+}
+
+/// The ends of `table`'s `n` choices' slots (all 0 without a table).
+fn ends(table: Option<&SlotTable>, n: usize) -> impl Iterator<Item = u32> + '_ {
+    (0..n).map(move |i| table.map_or(0, |t| t.slots(i).end as u32))
+}
+
+/// The choice whose slots (ending at `ends`) hold `slot`.
+#[inline]
+fn choose(ends: &[u32], slot: u32) -> usize {
+    ends.partition_point(|&end| end <= slot)
+}
+
+/// The slots of choice `i` (ending at `ends`).
+#[inline]
+fn owned(ends: &[u32], i: usize) -> std::ops::Range<u32> {
+    (if i == 0 { 0 } else { ends[i - 1] })..ends[i]
+}
+
+/// The probability of choice `i` (its share of the 2²⁴ slots).
+#[inline]
+fn probability(ends: &[u32], i: usize) -> f64 {
+    let s = owned(ends, i);
+    f64::from(s.end - s.start) / SLOTS as f64
+}
+
+/// A direction drawn from an environment map.
+#[derive(Clone, Copy, Debug)]
+pub struct EnvironmentSample {
+    /// Unit direction toward the map.
+    pub direction: Vec3,
+    /// The map's radiance along it.
+    pub radiance: Vec3,
+    /// The density (per unit solid angle) with which it was drawn.
+    pub pdf: f64,
 }
 
 /// Multiple importance sampling of the map against the BSDF, by Veach's

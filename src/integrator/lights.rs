@@ -122,12 +122,12 @@ impl LightSource {
                 radiance,
             } => sample_sphere(p, origin, n, *center, *radius, *radiance, u, v),
             LightSource::Environment(environment) => {
-                let (direction, weight) = environment.sample(u, v, pick);
-                let cos_surface = n.dot(direction);
+                let s = environment.sample(u, v, pick);
+                let cos_surface = n.dot(s.direction);
                 (cos_surface > 0.0).then_some(LightSample {
-                    direction,
+                    direction: s.direction,
                     t_max: f32::INFINITY,
-                    weight,
+                    weight: s.radiance / s.pdf as f32,
                     cos_surface,
                 })
             }
@@ -540,21 +540,10 @@ impl LightSet {
         self.sources.is_empty()
     }
 
-    /// Radiance arriving along `d` (any length but 0) from beyond the
-    /// scene, counted with weight `sky` for the sky (hemisphere lights:
-    /// above the horizon; the reference's camera does not see them) and
-    /// `environment` for the environment map (its camera does).
+    /// The sky's radiance (hemisphere lights) arriving along `d`.
     #[inline]
-    pub fn escaped(&self, d: Vec3, sky: bool, environment: f32) -> Vec3 {
-        let sky = if sky && d.y > 0.0 {
-            self.sky
-        } else {
-            Vec3::ZERO
-        };
-        match &self.environment {
-            Some(light) if environment > 0.0 => sky + light.map.radiance(d) * environment,
-            _ => sky,
-        }
+    pub fn sky_toward(&self, d: Vec3) -> Vec3 {
+        if d.y > 0.0 { self.sky } else { Vec3::ZERO }
     }
 }
 

@@ -4,8 +4,8 @@
 //! The mapping is the CS184 renderer's, so its maps light a scene the same
 //! way there and here: the polar angle θ = acos(y) runs down the rows
 //! (row 0 looks straight up, +y), the azimuth φ = atan2(−z, x) + π along
-//! the columns, so the middle column looks down −x and the left and right
-//! edges meet at +x. A direction's radiance is the bilinear interpolation
+//! the columns, so the middle column looks along +x, the left and right
+//! edges meet at −x, and a quarter of the way across looks along +z. A direction's radiance is the bilinear interpolation
 //! of the four nearest texel centres, wrapping around in φ and clamped at
 //! the poles.
 
@@ -18,7 +18,18 @@ pub struct EnvironmentMap {
     height: u32,
     /// Linear RGB radiance, row-major, row 0 at the top (θ = 0).
     texels: Vec<Vec3>,
+    /// Whether any texel is brighter than black.
+    emits: bool,
 }
+
+/// Largest radiance a texel may hold: far above any captured sun (~1e9),
+/// and far enough below f32's limit that a sample's radiance over its
+/// density stays finite.
+pub const MAX_RADIANCE: f32 = 1e20;
+
+/// Largest width or height of a map: the sampling tables choose a row, and
+/// a column within it, with a 24-bit draw (one slot at least per cell).
+pub const MAX_SIDE: u32 = 1 << 24;
 
 impl std::fmt::Debug for EnvironmentMap {
     /// The size only: a map holds millions of texels.
@@ -29,30 +40,33 @@ impl std::fmt::Debug for EnvironmentMap {
 
 impl EnvironmentMap {
     /// The map of `width × height` texels (row 0 at the top). Radiance must
-    /// be finite and not negative: the error names the first texel that is
-    /// not, by column and row.
+    /// be a number from 0 to [`MAX_RADIANCE`], and the sides at most
+    /// [`MAX_SIDE`]: the error names the first texel that is not, by
+    /// column and row.
     pub fn new(width: u32, height: u32, texels: Vec<Vec3>) -> Result<EnvironmentMap, String> {
-        if width == 0 || height == 0 {
+        if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
             return Err(format!(
-                "the map is {width}x{height} texels; it needs at least one"
+                "the map is {width}x{height} texels; its sides must be 1 to {MAX_SIDE}"
             ));
         }
         assert_eq!(texels.len(), width as usize * height as usize);
-        if let Some(i) = texels
-            .iter()
-            .position(|t| !(t.is_finite() && t.min_element() >= 0.0))
-        {
+        // (glam's min and max of a vector pass over NaN components.)
+        let usable =
+            |t: &Vec3| t.is_finite() && t.min_element() >= 0.0 && t.max_element() <= MAX_RADIANCE;
+        if let Some(i) = texels.iter().position(|t| !usable(t)) {
             let (x, y) = (i % width as usize, i / width as usize);
             return Err(format!(
                 "texel ({x}, {y}) (column, row from the top) is {} {} {}; radiance must be a \
-                 finite number ≥ 0",
+                 number from 0 to {MAX_RADIANCE:e}",
                 texels[i].x, texels[i].y, texels[i].z
             ));
         }
+        let emits = texels.iter().any(|t| t.max_element() > 0.0);
         Ok(EnvironmentMap {
             width,
             height,
             texels,
+            emits,
         })
     }
 
@@ -80,7 +94,7 @@ impl EnvironmentMap {
 
     /// Whether any texel is brighter than black.
     pub fn emits(&self) -> bool {
-        self.texels.iter().any(|t| t.max_element() > 0.0)
+        self.emits
     }
 
     /// Radiance arriving from direction `d` (any length but 0). Out of
@@ -105,30 +119,47 @@ impl EnvironmentMap {
     }
 
     /// The bilinear interpolation at map position `(x, y)` (in texels;
-    /// texel centres at half-integers).
+    /// texel centres at half-integers): wrapping around in `x`, clamped to
+    /// the first and last rows' centres in `y`.
     pub fn at(&self, x: f64, y: f64) -> Vec3 {
-        let (fx, fy) = (x - 0.5, (y - 0.5).clamp(0.0, f64::from(self.height) - 1.0));
+        let (w, h) = (i64::from(self.width), i64::from(self.height));
+        let (fx, fy) = (x - 0.5, (y - 0.5).clamp(0.0, (h - 1) as f64));
         let (x0, y0) = (fx.floor(), fy.floor());
         let (tx, ty) = ((fx - x0) as f32, (fy - y0) as f32);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let row = |y| self.texel(x0, y) * (1.0 - tx) + self.texel(x0 + 1, y) * tx;
-        row(y0) * (1.0 - ty) + row(y0 + 1) * ty
+        // Positions of directions lie in [0, w], so one wrap at most; the
+        // remainder (a division) only for anything further out.
+        let wrap = |i: i64| match i {
+            i if i < 0 && i >= -w => i + w,
+            i if i >= w && i < 2 * w => i - w,
+            i => i.rem_euclid(w),
+        } as usize;
+        let (x0, x1) = (wrap(x0 as i64), wrap(x0 as i64 + 1));
+        let y0 = y0 as usize;
+        let y1 = (y0 + 1).min(h as usize - 1);
+        let row = |y: usize| {
+            let texels = &self.texels[y * w as usize..][..w as usize];
+            texels[x0] * (1.0 - tx) + texels[x1] * tx
+        };
+        row(y0) * (1.0 - ty) + row(y1) * ty
     }
 }
 
 /// The unit direction at polar angle θ (its cosine `cos_theta`) and
-/// azimuth `phi`, in the map's convention (see the module docs).
+/// azimuth `phi`, in the map's convention (see the module docs). In f64:
+/// near the poles a cell of a large map spans less than f32's spacing of
+/// cos θ, and sin θ = √((1 − c)(1 + c)) keeps its digits there.
 #[inline]
-pub fn direction(cos_theta: f32, phi: f32) -> Vec3 {
-    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+pub fn direction(cos_theta: f64, phi: f64) -> Vec3 {
+    let c = cos_theta.clamp(-1.0, 1.0);
+    let sin_theta = ((1.0 - c) * (1.0 + c)).sqrt();
     let (sin_phi, cos_phi) = phi.sin_cos();
-    Vec3::new(-cos_phi * sin_theta, cos_theta, sin_phi * sin_theta)
+    glam::DVec3::new(-cos_phi * sin_theta, c, sin_phi * sin_theta).as_vec3()
 }
 
 /// The azimuth of a column position `x` (in texels) of a map `width` wide.
 #[inline]
-pub fn azimuth(x: f64, width: u32) -> f32 {
-    (x / f64::from(width) * std::f64::consts::TAU) as f32
+pub fn azimuth(x: f64, width: u32) -> f64 {
+    x / f64::from(width) * std::f64::consts::TAU
 }
 
 /// Cosine of the polar angle at row position `y` of a map `height` tall.
@@ -162,7 +193,7 @@ mod tests {
         assert!(close(map.position(Vec3::NEG_Z), (6.0, 2.0)));
         assert!(close(map.position(Vec3::Z), (2.0, 2.0)));
         for &(x, y) in &[(0.3, 0.2), (4.0, 2.0), (7.9, 3.7), (2.5, 1.0)] {
-            let d = direction(polar_cosine(y, 4) as f32, azimuth(x, 8));
+            let d = direction(polar_cosine(y, 4), azimuth(x, 8));
             let (bx, by) = map.position(d);
             assert!(
                 (bx - x).abs() < 1e-5 && (by - y).abs() < 1e-5,
@@ -197,8 +228,14 @@ mod tests {
             e.starts_with("texel (1, 1) (column, row from the top) is 1 NaN 0"),
             "{e}"
         );
-        texels[4] = Vec3::new(1.0, -0.5, 0.0);
-        assert!(EnvironmentMap::new(3, 2, texels).is_err());
+        for bad in [-0.5, f32::INFINITY, 2.0 * MAX_RADIANCE] {
+            texels[4] = Vec3::new(1.0, bad, 0.0);
+            assert!(EnvironmentMap::new(3, 2, texels.clone()).is_err(), "{bad}");
+        }
+        texels[4] = Vec3::new(1.0, MAX_RADIANCE, 0.0);
+        assert!(EnvironmentMap::new(3, 2, texels).is_ok());
         assert!(EnvironmentMap::new(0, 2, vec![]).is_err());
+        let e = EnvironmentMap::new(MAX_SIDE + 1, 1, vec![]).unwrap_err();
+        assert!(e.contains("must be 1 to 16777216"), "{e}");
     }
 }

@@ -22,10 +22,12 @@ pub struct Paths {
     pub depth: Vec<u32>,
     /// Whether the ray left a delta (specular) bounce, so emission it finds counts.
     pub specular: Vec<bool>,
-    /// The weight with which the environment map's light counts if the ray
-    /// escapes: 1 for camera rays, the BSDF's multiple-importance weight
-    /// after a diffuse bounce (0 where the map is not sampled that way).
-    pub escape_weight: Vec<f32>,
+    /// The density with which the ray's direction was drawn, for the share
+    /// of the environment map's light it takes if it escapes: +∞ for
+    /// camera rays (all of it), cos θ / π after a diffuse bounce (shared
+    /// with the map's samples by multiple importance), 0 where hemisphere
+    /// probes count the map. Written only in scenes with a map.
+    pub escape_pdf: Vec<f32>,
     /// Whether the path continues after the current shade stage.
     pub alive: Vec<bool>,
     pub rays: Rays,
@@ -40,7 +42,7 @@ impl Paths {
             radiance: Vec::with_capacity(n),
             depth: Vec::with_capacity(n),
             specular: Vec::with_capacity(n),
-            escape_weight: Vec::with_capacity(n),
+            escape_pdf: Vec::with_capacity(n),
             alive: Vec::with_capacity(n),
             rays: Rays::with_capacity(n),
         }
@@ -74,7 +76,7 @@ impl Paths {
         lanes::extend(&mut self.radiance, &[Vec3::ZERO; LANES], n);
         lanes::extend(&mut self.depth, &[0; LANES], n);
         lanes::extend(&mut self.specular, &[false; LANES], n);
-        lanes::extend(&mut self.escape_weight, &[1.0; LANES], n);
+        lanes::extend(&mut self.escape_pdf, &[f32::INFINITY; LANES], n);
         lanes::extend(&mut self.alive, &[true; LANES], n);
         self.rays
             .extend_lanes(n, origin, direction, f32x8::splat(t_max));
@@ -89,7 +91,7 @@ impl Paths {
         self.radiance[to] = self.radiance[from];
         self.depth[to] = self.depth[from];
         self.specular[to] = self.specular[from];
-        self.escape_weight[to] = self.escape_weight[from];
+        self.escape_pdf[to] = self.escape_pdf[from];
         self.alive[to] = self.alive[from];
         self.rays.copy_within(from, to);
     }
@@ -102,7 +104,7 @@ impl Paths {
         self.radiance.truncate(n);
         self.depth.truncate(n);
         self.specular.truncate(n);
-        self.escape_weight.truncate(n);
+        self.escape_pdf.truncate(n);
         self.alive.truncate(n);
         self.rays.truncate(n);
     }

@@ -9,10 +9,7 @@
 use glam::Vec3;
 use wide::f32x8;
 
-use std::f64::consts::PI;
-
 use crate::integrator::bsdf::Surface;
-use crate::integrator::environment::{EnvironmentLight, mis_weights};
 use crate::integrator::lights::{LightSamples, LightSet, LightSource};
 use crate::integrator::{Settings, View};
 use crate::lanes::{self, LANES, Vec3x8};
@@ -259,10 +256,10 @@ fn shade_diffuse(
             normal: sp.ns,
             throughput: throughput * albedo,
         };
-        let escape = match inputs.lights.environment.as_deref() {
+        let escape = match inputs.lights.environment {
             None => Escape::NoMap,
             Some(_) if settings.hemisphere => Escape::Probed,
-            Some(environment) => Escape::Shared(environment),
+            Some(_) => Escape::Shared,
         };
         continue_paths(settings, paths, draws, chunk, goes_on, next, escape);
     }
@@ -275,17 +272,26 @@ fn shade_diffuse(
 /// multiple-importance weight leaves to the BSDF's ray.
 fn on_miss(inputs: &ShadeInputs, paths: &mut Paths, i: usize) {
     let depth = paths.depth[i];
-    if !inputs.settings.counts_bounce(depth) {
+    let settings = inputs.settings;
+    if !settings.counts_bounce(depth) {
         return;
     }
     let sky = depth > 0 && paths.specular[i];
-    let environment = match inputs.lights.environment {
-        Some(_) => paths.escape_weight[i],
-        None => 0.0,
+    let map = match &inputs.lights.environment {
+        Some(environment) if paths.escape_pdf[i] > 0.0 => Some(environment),
+        _ => None,
     };
-    if sky || environment > 0.0 {
+    if sky || map.is_some() {
         let d = paths.rays.direction(i);
-        paths.radiance[i] += paths.throughput[i] * inputs.lights.escaped(d, sky, environment);
+        let mut arriving = if sky {
+            inputs.lights.sky_toward(d)
+        } else {
+            Vec3::ZERO
+        };
+        if let Some(environment) = map {
+            arriving += environment.escaping(d, paths.escape_pdf[i], settings.light_samples);
+        }
+        paths.radiance[i] += paths.throughput[i] * arriving;
     }
 }
 
@@ -334,7 +340,8 @@ fn direct_lights(
                 None => (f32x8::splat(0.5), f32x8::splat(0.5)),
             };
             let s = light.sample_x8((p, p_out, n), u, v).unwrap_or_else(|| {
-                sample_lanes(light, paths, start, direct, (p, p_out, n), (u, v))
+                let mis = (shared, count);
+                sample_lanes(light, paths, (start, direct), mis, (p, p_out, n), (u, v))
             });
             let contribution = beta * s.weight * (s.cos_surface * inv_count);
             let positive = contribution.max_element().simd_gt(f32x8::ZERO).to_bitmask();
@@ -346,51 +353,20 @@ fn direct_lights(
             });
         }
     }
-    if shared != 0 {
-        share_environment(inputs, candidates, shared, n);
-    }
-}
-
-/// Weighs the environment map's candidates in the lanes `shared`, whose
-/// continuation ray may find the map as well, by their multiple-importance
-/// weight against that ray (the candidates are in light and sample order,
-/// one per sample of a light that is not a delta light, one per delta
-/// light). A pass of its own, out of line: weighed in the loop over the
-/// lights, the map slowed that loop by 2% in scenes without one.
-#[inline(never)]
-fn share_environment(inputs: &ShadeInputs, candidates: &mut [Candidate], shared: u32, n: Vec3x8) {
-    let samples = inputs.settings.light_samples;
-    let mut first = 0;
-    for light in &inputs.lights.sources {
-        let count = if light.is_delta() {
-            1
-        } else {
-            samples as usize
-        };
-        if let LightSource::Environment(environment) = light {
-            for c in &mut candidates[first..first + count] {
-                let mut weights = [1.0; LANES];
-                let cos = n.dot(c.direction);
-                for lane in lanes::each(c.valid & shared) {
-                    let bsdf_pdf = f64::from(cos.as_array()[lane].max(0.0)) / PI;
-                    let light_pdf = environment.pdf(c.direction.lane(lane));
-                    weights[lane] = mis_weights(light_pdf, samples, bsdf_pdf).0;
-                }
-                c.contribution = c.contribution * f32x8::from(weights);
-            }
-        }
-        first += count;
-    }
 }
 
 /// [`LightSource::sample`] lane by lane, for the lights without an
 /// eight-lane form; meshes take the bits that pick a triangle from each
-/// path's stream.
+/// path's stream, and environment maps the bits that place a point in a
+/// cell. An environment map's samples in the lanes `shared` (whose
+/// continuation ray may find the map as well) are weighted by their
+/// multiple-importance share against that ray, for `count` map samples
+/// per vertex.
 fn sample_lanes(
     light: &LightSource,
     paths: &mut Paths,
-    start: usize,
-    direct: u32,
+    (start, direct): (usize, u32),
+    (shared, count): (u32, u32),
     (p, p_out, n): (Vec3x8, Vec3x8, Vec3x8),
     (u, v): (f32x8, f32x8),
 ) -> LightSamples {
@@ -402,7 +378,13 @@ fn sample_lanes(
             0
         };
         let (u, v) = (u.as_array()[lane], v.as_array()[lane]);
-        out[lane] = light.sample(p.lane(lane), p_out.lane(lane), n.lane(lane), u, v, pick);
+        let (p, p_out, n) = (p.lane(lane), p_out.lane(lane), n.lane(lane));
+        out[lane] = match light {
+            LightSource::Environment(environment) if shared & (1 << lane) != 0 => {
+                environment.sample_shared(n, (u, v, pick), count)
+            }
+            _ => light.sample(p, p_out, n, u, v, pick),
+        };
     }
     LightSamples::from_lanes(&out)
 }
@@ -520,32 +502,29 @@ fn continue_paths(
         Escape::NoMap => {}
         Escape::Probed => {
             for lane in lanes::each(alive) {
-                paths.escape_weight[start + lane] = 0.0;
+                paths.escape_pdf[start + lane] = 0.0;
             }
         }
-        Escape::Shared(environment) => {
-            // The BSDF's share of the map's light, should the ray escape
-            // (cosine-weighted: density cos θ / π).
-            let cos = d.dot(next.normal);
+        Escape::Shared => {
+            // Cosine-weighted: density cos θ / π. (The map's density, for
+            // the share, is looked up only if the ray escapes.)
+            let pdf = (d.dot(next.normal) * f32x8::splat(std::f32::consts::FRAC_1_PI)).to_array();
             for lane in lanes::each(alive) {
-                let bsdf_pdf = f64::from(cos.as_array()[lane].max(0.0)) / PI;
-                let light_pdf = environment.pdf(d.lane(lane));
-                let (_, bsdf) = mis_weights(light_pdf, settings.light_samples, bsdf_pdf);
-                paths.escape_weight[start + lane] = bsdf;
+                paths.escape_pdf[start + lane] = pdf[lane];
             }
         }
     }
 }
 
 /// How a continuation ray counts the environment map's light if it
-/// escapes ([`Paths::escape_weight`]).
-enum Escape<'a> {
-    /// There is no map (the weights are never read).
+/// escapes ([`Paths::escape_pdf`]).
+enum Escape {
+    /// There is no map (the densities are never read).
     NoMap,
     /// Not at all: hemisphere probes (`-H`) count it.
     Probed,
-    /// With the BSDF's multiple-importance weight against the map's samples.
-    Shared(&'a EnvironmentLight),
+    /// By its multiple-importance share against the map's samples.
+    Shared,
 }
 
 #[cfg(test)]

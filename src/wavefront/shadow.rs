@@ -45,7 +45,9 @@ pub fn resolve_probe_rays(
     for k in 0..probes.len() {
         let d = probes.rays.direction(k);
         let emitted = if !hits.is_hit(k) {
-            lights.escaped(d, true, 1.0)
+            let beyond = lights.environment.as_ref();
+            let map = beyond.map_or(Vec3::ZERO, |m| m.escaping(d, f32::INFINITY, 1));
+            lights.sky_toward(d) + map
         } else {
             let prim = hits.prim[k];
             match surfaces[geometry.material(prim) as usize] {
