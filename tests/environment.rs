@@ -296,3 +296,80 @@ fn a_floor_reflects_the_light_of_the_upper_half_of_the_map() {
         assert_eq!(image.non_finite_count(), 0, "{what}");
     }
 }
+
+/// A diffuse sphere of radius r hanging at height c over a diffuse floor,
+/// under a uniform map of radiance L: the sphere hides from a floor point
+/// at distance d from its centre a cap of half-angle asin(r/d), wholly
+/// above the horizon (c > r), centred at angle β from the normal with
+/// cos β = c/d. A cap's projected solid angle is π sin²α cos β, so with
+/// one bounce the floor reflects ρL(1 − r²c/d³): shadow rays toward the
+/// map (light sampling) and probes (`-H`) must both stop at the sphere.
+#[test]
+fn a_sphere_shades_the_floor_under_a_uniform_environment_by_its_projected_solid_angle() {
+    let radiance = Vec3::new(2.0, 1.0, 0.25);
+    let (centre, r) = (Vec3::new(0.0, 1.25, 0.0), 1.0f32);
+    let mut b = Builder::default();
+    let grey = b.material(Material::Diffuse {
+        albedo: Vec3::splat(ALBEDO),
+    });
+    let s = 50.0;
+    b.quad(
+        Vec3::new(-s, 0.0, -s),
+        Vec3::new(-s, 0.0, s),
+        Vec3::new(s, 0.0, s),
+        Vec3::new(s, 0.0, -s),
+        grey,
+    );
+    b.sphere(centre, r, grey);
+    b.lights.push(Light::Environment(Arc::new(
+        EnvironmentMap::uniform(radiance).unwrap(),
+    )));
+    let (w, h) = (40, 30);
+    // Looking down at the floor in front of the sphere, where its shade is
+    // deepest (1 − r²/c² = 0.36 of the open floor under its centre).
+    let eye = Vec3::new(0.0, 3.0, 6.0);
+    let scene = b.build(camera(eye, -eye, Vec3::Y, 40.0, h));
+    // Pixels none of whose rays come within 0.1 of the sphere see only the
+    // floor (all rays here point down, the highest 6.6° below the horizon,
+    // and meet the floor within the quad).
+    let near_sphere = pixel_mean(&scene, w, h, |d| {
+        let d = d.normalize();
+        let to_centre = centre - eye;
+        let passes = (to_centre - to_centre.dot(d) * d).length();
+        assert!(d.y < -0.1, "a camera ray {d} misses the floor");
+        f64::from(u8::from(passes < r + 0.1))
+    });
+    let shade = pixel_average(&scene, w, h, |x| {
+        let d = f64::from((x - centre).length());
+        1.0 - f64::from(r * r * centre.y) / (d * d * d)
+    });
+    let floor: Vec<usize> = (0..near_sphere.len())
+        .filter(|&k| near_sphere[k] == 0.0)
+        .collect();
+    assert!(floor.len() > 800, "{} floor pixels", floor.len());
+    let deepest = floor
+        .iter()
+        .map(|&k| shade[k])
+        .fold(f64::INFINITY, f64::min);
+    // The renders must tell the shade from open floor: the deepest seen is
+    // well below 1, and so is the mean, which a render ignoring the sphere
+    // (ρL everywhere) misses by far more than the tolerance.
+    let mean_shade = floor.iter().map(|&k| shade[k]).sum::<f64>() / floor.len() as f64;
+    assert!(
+        deepest < 0.7 && mean_shade < 0.97,
+        "the floor seen is barely shaded (deepest {deepest}, mean {mean_shade})"
+    );
+    for (hemisphere, spp) in [(false, 16), (true, 64)] {
+        let image = render(&scene, &settings(spp, 1, hemisphere), 2);
+        for c in 0..3 {
+            let what = format!("sphere over floor, -H {hemisphere}, channel {c}");
+            let open = f64::from(ALBEDO * radiance[c]);
+            let est: Vec<f64> = floor
+                .iter()
+                .map(|&k| f64::from(image.pixels[k][c]))
+                .collect();
+            let expected: Vec<f64> = floor.iter().map(|&k| open * shade[k]).collect();
+            assert_unbiased(&what, &est, &expected, 1e-4);
+        }
+    }
+}

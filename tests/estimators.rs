@@ -328,42 +328,6 @@ fn floor_points(scene: &Scene, w: u32, h: u32) -> Vec<Vec3> {
     points
 }
 
-/// The mean of `f` over the part of the floor each pixel sees (see
-/// [`pixel_mean`]).
-fn pixel_average(scene: &Scene, w: u32, h: u32, f: impl Fn(Vec3) -> f64) -> Vec<f64> {
-    let o = scene.camera.position;
-    pixel_mean(scene, w, h, |d| f(o + (-o.y / d.y) * d))
-}
-
-/// The mean of `f` over the camera ray directions through each pixel, by
-/// an 8×8 midpoint grid within the pixel: what a film that jitters its
-/// samples uniformly over the pixel converges to. (Evaluating `f` at the
-/// pixel centre instead misses by ~2e-4 of the value where `f` curves,
-/// which the low-variance estimates here resolve.)
-fn pixel_mean(scene: &Scene, w: u32, h: u32, f: impl Fn(Vec3) -> f64) -> Vec<f64> {
-    const N: u32 = 8;
-    let view = scene.camera.view(w, h);
-    let mut out = Vec::with_capacity((w * h) as usize);
-    for row in 0..h {
-        let y = h - 1 - row;
-        for x in 0..w {
-            let mut sum = 0.0;
-            for j in 0..N {
-                for i in 0..N {
-                    let d = scene.camera.direction(
-                        &view,
-                        x as f32 + (i as f32 + 0.5) / N as f32,
-                        y as f32 + (j as f32 + 0.5) / N as f32,
-                    );
-                    sum += f(d);
-                }
-            }
-            out.push(sum / (N * N) as f64);
-        }
-    }
-    out
-}
-
 #[test]
 fn point_light_falls_off_with_the_inverse_square() {
     for height in [0.5f32, 1.0, 2.0, 4.0] {
