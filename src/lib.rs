@@ -10,6 +10,7 @@ pub mod cli;
 pub mod film;
 pub mod integrator;
 pub mod lanes;
+pub mod prefetch;
 pub mod ray;
 pub mod sampling;
 pub mod scene;

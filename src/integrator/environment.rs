@@ -29,6 +29,8 @@ use std::sync::Arc;
 use glam::Vec3;
 
 use super::lights::LightSample;
+use crate::lanes::{self, LANES};
+use crate::prefetch::prefetch;
 use crate::sampling::slots::SlotTable;
 use crate::scene::EnvironmentMap;
 use crate::scene::environment::{azimuth, direction, polar_cosine};
@@ -108,11 +110,26 @@ impl EnvironmentLight {
     /// A direction drawn with the uniform numbers `(u, v)` (24-bit draws:
     /// `u` picks the row, `v` the column) and 32 random bits `jitter` (the
     /// position inside the cell), with the radiance it brings and its
-    /// density. (Out of line, as are the other lookups: called once per
-    /// sample, they would only grow the shading stage's loop, which every
-    /// scene runs.)
-    #[inline(never)]
+    /// density. [`sample_lanes`](Self::sample_lanes) draws the same for
+    /// eight lanes at once.
     pub fn sample(&self, u: f32, v: f32, jitter: u32) -> EnvironmentSample {
+        self.sample_lanes(1, &[(u, v, jitter); LANES])[0]
+    }
+
+    /// [`sample`](Self::sample) for each lane in the mask `lanes` of
+    /// `draws` (the other lanes' samples are meaningless). Three passes
+    /// over the lanes, each requesting what the next reads: the rows and
+    /// the columns' guide lines (small, mostly cached), then the columns'
+    /// slot ends, then the texels, so that the eight lanes' cache misses
+    /// overlap. (Out of line, as are the other lookups: called for the
+    /// lanes that sample a map, they would only grow the shading stage's
+    /// loop, which every scene runs.)
+    #[inline(never)]
+    pub fn sample_lanes(
+        &self,
+        lanes: u32,
+        draws: &[(f32, f32, u32); LANES],
+    ) -> [EnvironmentSample; LANES] {
         // The slot a draw falls in, and where in its choice's slots: a
         // fraction in [0, 1) filled out by 16 bits of `bits`.
         fn slot(draw: f32) -> u32 {
@@ -122,48 +139,77 @@ impl EnvironmentLight {
             let fine = (f64::from(bits & 0xffff) + 0.5) / 65536.0;
             (f64::from(slot - slots.start) + fine) / f64::from(slots.end - slots.start)
         }
-        let (su, sv) = (slot(u), slot(v));
-        let j = self.row_guide.choose(&self.row_ends, su);
-        let fy = within(owned(&self.row_ends, j), su, jitter);
-        let columns = self.columns(j);
-        let i = self.column_guides[j].choose(columns, sv);
-        let fx = within(owned(columns, i), sv, jitter >> 16);
-        let cos_theta = self.edge_cos[j] + fy * (self.edge_cos[j + 1] - self.edge_cos[j]);
-        let x = i as f64 + fx;
-        let direction = direction(cos_theta, azimuth(x, self.map.width()));
-        // The map position of the direction, found from the draw rather
-        // than from the direction (one arc cosine instead of two inverse
-        // trigonometric functions).
-        let y = cos_theta.clamp(-1.0, 1.0).acos() / PI * f64::from(self.map.height());
-        let probability = probability(&self.row_ends, j) * probability(columns, i);
-        EnvironmentSample {
-            direction,
-            radiance: self.map.at(x, y),
-            pdf: probability / self.cell_solid_angle(j),
+        let w = self.map.width() as usize;
+        let mut slots = [(0, 0); LANES];
+        let mut rows = [0; LANES];
+        for lane in lanes::each(lanes) {
+            let (u, v, _) = draws[lane];
+            let (su, sv) = (slot(u), slot(v));
+            let j = self.row_guide.choose(&self.row_ends, su);
+            prefetch(&self.column_ends[j * w + self.column_guides[j].first(sv)]);
+            (slots[lane], rows[lane]) = ((su, sv), j);
         }
+        let mut cells = [Cell::default(); LANES];
+        for lane in lanes::each(lanes) {
+            let ((su, sv), j, jitter) = (slots[lane], rows[lane], draws[lane].2);
+            let fy = within(owned(&self.row_ends, j), su, jitter);
+            let columns = self.columns(j);
+            let i = self.column_guides[j].choose(columns, sv);
+            let fx = within(owned(columns, i), sv, jitter >> 16);
+            let cos_theta = self.edge_cos[j] + fy * (self.edge_cos[j + 1] - self.edge_cos[j]);
+            let x = i as f64 + fx;
+            // The map position of the direction, found from the draw
+            // rather than from the direction (one arc cosine instead of
+            // two inverse trigonometric functions).
+            let y = cos_theta.clamp(-1.0, 1.0).acos() / PI * f64::from(self.map.height());
+            self.map.prefetch(x, y);
+            let probability = probability(&self.row_ends, j) * probability(columns, i);
+            cells[lane] = Cell {
+                x,
+                y,
+                cos_theta,
+                pdf: probability / self.cell_solid_angle(j),
+            };
+        }
+        let mut out = [EnvironmentSample::default(); LANES];
+        for lane in lanes::each(lanes) {
+            let c = cells[lane];
+            out[lane] = EnvironmentSample {
+                direction: direction(c.cos_theta, azimuth(c.x, self.map.width())),
+                radiance: self.map.at(c.x, c.y),
+                pdf: c.pdf,
+            };
+        }
+        out
     }
 
-    /// A light sample of the map from a point of shading normal `n` whose
-    /// diffuse continuation ray may find the map as well: the radiance over
-    /// the density times the sample's multiple-importance share against
-    /// that cosine-weighted ray, for `count` map samples per vertex.
-    /// `None` below the surface.
-    pub fn sample_shared(
+    /// The light sample `s` of the map makes for a point of shading normal
+    /// `n`: its radiance over its density, times — where the point's
+    /// diffuse continuation ray may find the map as well (`shared_with`:
+    /// `Some(count)` for `count` map samples per vertex) — the sample's
+    /// multiple-importance share against that cosine-weighted ray. `None`
+    /// below the surface.
+    pub fn light_sample(
         &self,
         n: Vec3,
-        (u, v, jitter): (f32, f32, u32),
-        count: u32,
+        s: &EnvironmentSample,
+        shared_with: Option<u32>,
     ) -> Option<LightSample> {
-        let s = self.sample(u, v, jitter);
         let cos_surface = n.dot(s.direction);
         if cos_surface <= 0.0 {
             return None;
         }
-        let (share, _) = mis_weights(s.pdf, count, f64::from(cos_surface) / PI);
+        let weight = match shared_with {
+            Some(count) => {
+                let (share, _) = mis_weights(s.pdf, count, f64::from(cos_surface) / PI);
+                s.radiance * (share / s.pdf as f32)
+            }
+            None => s.radiance / s.pdf as f32,
+        };
         Some(LightSample {
             direction: s.direction,
             t_max: f32::INFINITY,
-            weight: s.radiance * (share / s.pdf as f32),
+            weight,
             cos_surface,
         })
     }
@@ -178,10 +224,15 @@ impl EnvironmentLight {
 
     /// [`pdf`](Self::pdf) at map position `(x, y)`.
     fn pdf_at(&self, x: f64, y: f64) -> f64 {
-        let (w, h) = (self.map.width() as usize, self.map.height() as usize);
-        let j = (y as usize).min(h - 1);
-        let i = (x as usize) % w;
+        let (j, i) = self.cell(x, y);
         probability(&self.row_ends, j) * probability(self.columns(j), i) / self.cell_solid_angle(j)
+    }
+
+    /// The cell (row, column) holding map position `(x, y)`.
+    #[inline]
+    fn cell(&self, x: f64, y: f64) -> (usize, usize) {
+        let (w, h) = (self.map.width() as usize, self.map.height() as usize);
+        ((y as usize).min(h - 1), (x as usize) % w)
     }
 
     /// The map's radiance arriving along `d` (any length but 0) at a
@@ -189,9 +240,26 @@ impl EnvironmentLight {
     /// by that ray's multiple-importance share against `light_samples`
     /// samples of the map (its whole radiance for `bsdf_pdf` = +∞: a ray
     /// no map sample stands in for, such as a camera ray).
-    #[inline(never)]
     pub fn escaping(&self, d: Vec3, bsdf_pdf: f32, light_samples: u32) -> Vec3 {
+        self.escaping_at(self.locate(d), bsdf_pdf, light_samples)
+    }
+
+    /// The map position of direction `d` (any length but 0), with the
+    /// texels and slot ends that [`escaping_at`](Self::escaping_at) will
+    /// read there requested (see [`prefetch`](crate::prefetch)).
+    #[inline(never)]
+    pub fn locate(&self, d: Vec3) -> (f64, f64) {
         let (x, y) = self.map.position(d);
+        self.map.prefetch(x, y);
+        let (j, i) = self.cell(x, y);
+        prefetch(&self.column_ends[j * self.map.width() as usize + i]);
+        (x, y)
+    }
+
+    /// [`escaping`](Self::escaping) at the map position
+    /// [`locate`](Self::locate) found.
+    #[inline(never)]
+    pub fn escaping_at(&self, (x, y): (f64, f64), bsdf_pdf: f32, light_samples: u32) -> Vec3 {
         let radiance = self.map.at(x, y);
         if bsdf_pdf == f32::INFINITY {
             return radiance;
@@ -241,11 +309,17 @@ impl Guide {
         Guide(bucket)
     }
 
+    /// The first choice that may hold `slot`.
+    #[inline]
+    fn first(&self, slot: u32) -> usize {
+        self.0[(slot >> GUIDE_SHIFT) as usize] as usize
+    }
+
     /// [`choose`]`(ends, slot)` for the `ends` this guide was made of.
     #[inline]
     fn choose(&self, ends: &[u32], slot: u32) -> usize {
         let k = (slot >> GUIDE_SHIFT) as usize;
-        let first = self.0[k] as usize;
+        let first = self.first(slot);
         let last = match self.0.get(k + 1) {
             Some(&next) => next as usize,
             None => ends.len() - 1,
@@ -267,8 +341,17 @@ fn probability(ends: &[u32], i: usize) -> f64 {
     f64::from(s.end - s.start) / SLOTS as f64
 }
 
+/// Where a sample fell: its map position, cos θ and density.
+#[derive(Clone, Copy, Debug, Default)]
+struct Cell {
+    x: f64,
+    y: f64,
+    cos_theta: f64,
+    pdf: f64,
+}
+
 /// A direction drawn from an environment map.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct EnvironmentSample {
     /// Unit direction toward the map.
     pub direction: Vec3,

@@ -122,14 +122,7 @@ impl LightSource {
                 radiance,
             } => sample_sphere(p, origin, n, *center, *radius, *radiance, u, v),
             LightSource::Environment(environment) => {
-                let s = environment.sample(u, v, pick);
-                let cos_surface = n.dot(s.direction);
-                (cos_surface > 0.0).then_some(LightSample {
-                    direction: s.direction,
-                    t_max: f32::INFINITY,
-                    weight: s.radiance / s.pdf as f32,
-                    cos_surface,
-                })
+                environment.light_sample(n, &environment.sample(u, v, pick), None)
             }
             LightSource::Mesh {
                 triangles,

@@ -11,6 +11,8 @@
 
 use glam::Vec3;
 
+use crate::prefetch::prefetch;
+
 /// A latitude–longitude radiance map.
 #[derive(Clone, PartialEq)]
 pub struct EnvironmentMap {
@@ -122,10 +124,33 @@ impl EnvironmentMap {
     /// texel centres at half-integers): wrapping around in `x`, clamped to
     /// the first and last rows' centres in `y`.
     pub fn at(&self, x: f64, y: f64) -> Vec3 {
+        let f = self.footprint(x, y);
+        let row = |y: usize| {
+            let texels = &self.texels[y * self.width as usize..];
+            texels[f.columns[0]] * (1.0 - f.tx) + texels[f.columns[1]] * f.tx
+        };
+        row(f.rows[0]) * (1.0 - f.ty) + row(f.rows[1]) * f.ty
+    }
+
+    /// Requests the texels that [`at`](Self::at)`(x, y)` will read (see
+    /// [`prefetch`](crate::prefetch)).
+    #[inline]
+    pub fn prefetch(&self, x: f64, y: f64) {
+        let f = self.footprint(x, y);
+        for y in f.rows {
+            let row = y * self.width as usize;
+            // A texel is 12 bytes: the pair may span two lines.
+            prefetch(&self.texels[row + f.columns[0]]);
+            prefetch(&self.texels[row + f.columns[1]].z);
+        }
+    }
+
+    /// The four texels a lookup at `(x, y)` blends, and the weights.
+    #[inline(always)]
+    fn footprint(&self, x: f64, y: f64) -> Footprint {
         let (w, h) = (i64::from(self.width), i64::from(self.height));
         let (fx, fy) = (x - 0.5, (y - 0.5).clamp(0.0, (h - 1) as f64));
         let (x0, y0) = (fx.floor(), fy.floor());
-        let (tx, ty) = ((fx - x0) as f32, (fy - y0) as f32);
         // Positions of directions lie in [0, w], so one wrap at most; the
         // remainder (a division) only for anything further out.
         let wrap = |i: i64| match i {
@@ -133,15 +158,23 @@ impl EnvironmentMap {
             i if i >= w && i < 2 * w => i - w,
             i => i.rem_euclid(w),
         } as usize;
-        let (x0, x1) = (wrap(x0 as i64), wrap(x0 as i64 + 1));
-        let y0 = y0 as usize;
-        let y1 = (y0 + 1).min(h as usize - 1);
-        let row = |y: usize| {
-            let texels = &self.texels[y * w as usize..][..w as usize];
-            texels[x0] * (1.0 - tx) + texels[x1] * tx
-        };
-        row(y0) * (1.0 - ty) + row(y1) * ty
+        let y0i = y0 as usize;
+        Footprint {
+            columns: [wrap(x0 as i64), wrap(x0 as i64 + 1)],
+            rows: [y0i, (y0i + 1).min(h as usize - 1)],
+            tx: (fx - x0) as f32,
+            ty: (fy - y0) as f32,
+        }
     }
+}
+
+/// Where a bilinear lookup reads: two columns and two rows of texels,
+/// with the second column's and row's weights.
+struct Footprint {
+    columns: [usize; 2],
+    rows: [usize; 2],
+    tx: f32,
+    ty: f32,
 }
 
 /// The unit direction at polar angle θ (its cosine `cos_theta`) and

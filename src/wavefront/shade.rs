@@ -10,6 +10,7 @@ use glam::Vec3;
 use wide::f32x8;
 
 use crate::integrator::bsdf::Surface;
+use crate::integrator::environment::EnvironmentLight;
 use crate::integrator::lights::{LightSamples, LightSet, LightSource};
 use crate::integrator::{Settings, View};
 use crate::lanes::{self, LANES, Vec3x8};
@@ -27,6 +28,8 @@ pub struct ShadeScratch {
     draws: VertexDraws,
     surfaces: SurfacePoints,
     candidates: Vec<Candidate>,
+    /// Where each path that escapes toward an environment map meets it.
+    escapes: Vec<(f64, f64)>,
 }
 
 /// What the shade stage reads besides the paths.
@@ -115,6 +118,7 @@ pub fn shade(
         draws,
         surfaces,
         candidates,
+        escapes,
     } = scratch;
     surfaces.compute(inputs.geometry, inputs.triangles, hits, &paths.rays);
     if settings.view != View::Path {
@@ -123,6 +127,7 @@ pub fn shade(
     }
     let light = WaveLight::of(inputs);
     draws.draw(&mut paths.stream, vertex_blocks(inputs, light));
+    locate_escapes(inputs, hits, paths, escapes);
     let n = paths.len();
     let (mut shadow, mut probes) = (shadow.writer(), probes.writer());
     for start in (0..n).step_by(LANES) {
@@ -132,7 +137,7 @@ pub fn shade(
         for i in start..end {
             paths.alive[i] = false;
             if !hits.is_hit(i) {
-                on_miss(inputs, paths, i);
+                on_miss(inputs, paths, i, escapes);
                 continue;
             }
             let depth = paths.depth[i];
@@ -265,22 +270,48 @@ fn shade_diffuse(
     }
 }
 
+/// The environment map that path `i`, which left the scene, sees, if it
+/// is a camera ray or left a bounce whose multiple-importance weight
+/// leaves the map's light a share (see [`on_miss`]).
+fn sees_map<'a>(inputs: &'a ShadeInputs, paths: &Paths, i: usize) -> Option<&'a EnvironmentLight> {
+    let environment = inputs.lights.environment.as_deref()?;
+    (inputs.settings.counts_bounce(paths.depth[i]) && paths.escape_pdf[i] > 0.0)
+        .then_some(environment)
+}
+
+/// Where each path of the wave that escapes toward the map meets it, a
+/// pass of its own so that the texel lookups of all of them are
+/// requested before the first is read (a map of 2048 columns is ~25 MB,
+/// and most lookups miss the cache).
+fn locate_escapes(inputs: &ShadeInputs, hits: &Hits, paths: &Paths, escapes: &mut Vec<(f64, f64)>) {
+    if inputs.lights.environment.is_none() {
+        return;
+    }
+    escapes.clear();
+    escapes.resize(paths.len(), (0.0, 0.0));
+    for (i, at) in escapes.iter_mut().enumerate() {
+        if !hits.is_hit(i)
+            && let Some(environment) = sees_map(inputs, paths, i)
+        {
+            *at = environment.locate(paths.rays.direction(i));
+        }
+    }
+}
+
 /// A ray that left the scene sees what lies beyond it if it is a camera
 /// ray (the environment map only) or left a delta bounce (the map and the
 /// sky): after any other bounce, next-event estimation has counted that
 /// light already — but for the environment map's share that its
-/// multiple-importance weight leaves to the BSDF's ray.
-fn on_miss(inputs: &ShadeInputs, paths: &mut Paths, i: usize) {
+/// multiple-importance weight leaves to the BSDF's ray. The map's position
+/// is where [`locate_escapes`] found it.
+fn on_miss(inputs: &ShadeInputs, paths: &mut Paths, i: usize, escapes: &[(f64, f64)]) {
     let depth = paths.depth[i];
     let settings = inputs.settings;
     if !settings.counts_bounce(depth) {
         return;
     }
     let sky = depth > 0 && paths.specular[i];
-    let map = match &inputs.lights.environment {
-        Some(environment) if paths.escape_pdf[i] > 0.0 => Some(environment),
-        _ => None,
-    };
+    let map = sees_map(inputs, paths, i);
     if sky || map.is_some() {
         let d = paths.rays.direction(i);
         let mut arriving = if sky {
@@ -289,7 +320,8 @@ fn on_miss(inputs: &ShadeInputs, paths: &mut Paths, i: usize) {
             Vec3::ZERO
         };
         if let Some(environment) = map {
-            arriving += environment.escaping(d, paths.escape_pdf[i], settings.light_samples);
+            let at = escapes[i];
+            arriving += environment.escaping_at(at, paths.escape_pdf[i], settings.light_samples);
         }
         paths.radiance[i] += paths.throughput[i] * arriving;
     }
@@ -371,20 +403,26 @@ fn sample_lanes(
     (u, v): (f32x8, f32x8),
 ) -> LightSamples {
     let mut out = [None; LANES];
+    let mut draws = [(0.0, 0.0, 0); LANES];
     for lane in lanes::each(direct) {
         let pick = if light.uses_pick() {
             paths.stream[start + lane].next_u32()
         } else {
             0
         };
-        let (u, v) = (u.as_array()[lane], v.as_array()[lane]);
-        let (p, p_out, n) = (p.lane(lane), p_out.lane(lane), n.lane(lane));
-        out[lane] = match light {
-            LightSource::Environment(environment) if shared & (1 << lane) != 0 => {
-                environment.sample_shared(n, (u, v, pick), count)
-            }
-            _ => light.sample(p, p_out, n, u, v, pick),
-        };
+        draws[lane] = (u.as_array()[lane], v.as_array()[lane], pick);
+    }
+    if let LightSource::Environment(environment) = light {
+        let samples = environment.sample_lanes(direct, &draws);
+        for lane in lanes::each(direct) {
+            let shared_with = (shared & (1 << lane) != 0).then_some(count);
+            out[lane] = environment.light_sample(n.lane(lane), &samples[lane], shared_with);
+        }
+    } else {
+        for lane in lanes::each(direct) {
+            let (u, v, pick) = draws[lane];
+            out[lane] = light.sample(p.lane(lane), p_out.lane(lane), n.lane(lane), u, v, pick);
+        }
     }
     LightSamples::from_lanes(&out)
 }
