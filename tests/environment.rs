@@ -267,14 +267,7 @@ fn a_floor_reflects_the_light_of_the_upper_half_of_the_map() {
     let floor = b.material(Material::Diffuse {
         albedo: Vec3::splat(ALBEDO),
     });
-    let s = 50.0;
-    b.quad(
-        Vec3::new(-s, 0.0, -s),
-        Vec3::new(-s, 0.0, s),
-        Vec3::new(s, 0.0, s),
-        Vec3::new(s, 0.0, -s),
-        floor,
-    );
+    b.floor(50.0, floor);
     b.lights.push(Light::Environment(Arc::new(map)));
     let scene: Scene = b.build(camera(
         Vec3::new(0.0, 3.0, 0.0),
@@ -312,14 +305,7 @@ fn a_sphere_shades_the_floor_under_a_uniform_environment_by_its_projected_solid_
     let grey = b.material(Material::Diffuse {
         albedo: Vec3::splat(ALBEDO),
     });
-    let s = 50.0;
-    b.quad(
-        Vec3::new(-s, 0.0, -s),
-        Vec3::new(-s, 0.0, s),
-        Vec3::new(s, 0.0, s),
-        Vec3::new(s, 0.0, -s),
-        grey,
-    );
+    b.floor(50.0, grey);
     b.sphere(centre, r, grey);
     b.lights.push(Light::Environment(Arc::new(
         EnvironmentMap::uniform(radiance).unwrap(),

@@ -234,14 +234,7 @@ fn floor_scene(b: &mut Builder) {
     let floor = b.material(Material::Diffuse {
         albedo: Vec3::splat(ALBEDO),
     });
-    let s = 50.0;
-    b.quad(
-        Vec3::new(-s, 0.0, -s),
-        Vec3::new(-s, 0.0, s),
-        Vec3::new(s, 0.0, s),
-        Vec3::new(s, 0.0, -s),
-        floor,
-    );
+    b.floor(50.0, floor);
 }
 
 /// Camera rays run from `znear` to `zfar` along their unit directions, as

@@ -58,6 +58,19 @@ impl Builder {
         self.triangle(a, c, d, material);
     }
 
+    /// A square floor in the plane y = 0, from −`half` to `half` in x and
+    /// z, facing +y.
+    pub fn floor(&mut self, half: f32, material: u32) {
+        let s = half;
+        self.quad(
+            Vec3::new(-s, 0.0, -s),
+            Vec3::new(-s, 0.0, s),
+            Vec3::new(s, 0.0, s),
+            Vec3::new(s, 0.0, -s),
+            material,
+        );
+    }
+
     pub fn sphere(&mut self, center: Vec3, radius: f32, material: u32) {
         let s = &mut self.geometry.spheres;
         s.center.push(center);
