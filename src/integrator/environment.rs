@@ -196,21 +196,21 @@ impl EnvironmentLight {
         shared_with: Option<u32>,
     ) -> Option<LightSample> {
         let cos_surface = n.dot(s.direction);
-        if cos_surface <= 0.0 {
-            return None;
-        }
-        let weight = match shared_with {
-            Some(count) => {
-                let (share, _) = mis_weights(s.pdf, count, f64::from(cos_surface) / PI);
-                s.radiance * (share / s.pdf as f32)
+        // (A NaN cosine is refused too.)
+        (cos_surface > 0.0).then(|| {
+            let weight = match shared_with {
+                Some(count) => {
+                    let (share, _) = mis_weights(s.pdf, count, f64::from(cos_surface) / PI);
+                    s.radiance * (share / s.pdf as f32)
+                }
+                None => s.radiance / s.pdf as f32,
+            };
+            LightSample {
+                direction: s.direction,
+                t_max: f32::INFINITY,
+                weight,
+                cos_surface,
             }
-            None => s.radiance / s.pdf as f32,
-        };
-        Some(LightSample {
-            direction: s.direction,
-            t_max: f32::INFINITY,
-            weight,
-            cos_surface,
         })
     }
 

@@ -287,7 +287,8 @@ fn locate_escapes(inputs: &ShadeInputs, hits: &Hits, paths: &Paths, escapes: &mu
     if inputs.lights.environment.is_none() {
         return;
     }
-    escapes.clear();
+    // Only entries written below are read (by `on_miss`, under the same
+    // `sees_map`), so a longer buffer's stale ones need no clearing.
     escapes.resize(paths.len(), (0.0, 0.0));
     for (i, at) in escapes.iter_mut().enumerate() {
         if !hits.is_hit(i)
