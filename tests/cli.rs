@@ -503,7 +503,8 @@ fn an_image_too_large_for_memory_is_refused_up_front() {
 /// elsewhere, and no warning that nothing lights it. A map that cannot be
 /// used is one line naming the file (and the texel at fault), exit 1, and
 /// no image. The shipped map (`scenes/sky.exr`) lights the shipped
-/// `scenes/outdoor.dae`.
+/// `scenes/outdoor.dae`, and a Radiance HDR map lights it as an EXR of the
+/// same texels does.
 #[test]
 fn environment_maps_light_the_scene_and_bad_ones_are_named() {
     use glam::Vec3;
@@ -570,17 +571,64 @@ fn environment_maps_light_the_scene_and_bad_ones_are_named() {
         image.at(240, 300)
     );
 
+    // A Radiance HDR map lights a scene exactly as an EXR of the same
+    // texels does (powers of two within 2⁸ of a texel's brightest
+    // channel: exact in RGBE), west to east and top to bottom alike.
+    let texels: Vec<Vec3> = (0..8)
+        .map(|k| Vec3::new(0.25, 2.0, 0.5) * 2f32.powi(k % 4 - 1 + 2 * (k / 4)))
+        .collect();
+    let hdr = scratch("sky.hdr");
+    let rgb: Vec<image::Rgb<f32>> = texels.iter().map(|t| image::Rgb(t.to_array())).collect();
+    image::codecs::hdr::HdrEncoder::new(std::fs::File::create(&hdr).unwrap())
+        .encode(&rgb, 4, 2)
+        .unwrap();
+    let exr_map = scratch("sky_of_hdr.exr");
+    exr::prelude::write_rgb_file(&exr_map, 4, 2, |x, y| texels[y * 4 + x].into()).unwrap();
+    let renders = [&hdr, &exr_map].map(|map| {
+        let out = scratch(&format!(
+            "under_{}.exr",
+            map.extension().unwrap().to_str().unwrap()
+        ));
+        let args = [
+            "-q",
+            "-s",
+            "2",
+            "-m",
+            "2",
+            "-r",
+            "64",
+            "48",
+            "-e",
+            map.to_str().unwrap(),
+        ];
+        let o = render_to(&format!("{root}/scenes/outdoor.dae"), &out, &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        read_image(&out).unwrap()
+    });
+    assert!(renders[0].pixels.iter().any(|p| p.max_element() > 0.0));
+    assert!(
+        renders[0].pixels == renders[1].pixels,
+        "the .hdr and .exr renders differ"
+    );
+
     let nan = write_map("nan_sky.exr", &[colour, Vec3::new(1.0, f32::NAN, 0.0)]);
     let text = scratch("not_exr.exr");
     std::fs::write(&text, "not an image").unwrap();
+    let text_hdr = scratch("not_hdr.hdr");
+    std::fs::write(&text_hdr, "not an image").unwrap();
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
     for (map, says) in [
         (scratch("missing_sky.exr"), "cannot read EXR".to_string()),
         (
-            PathBuf::from("sky.hdr"),
-            "environment maps are read from OpenEXR files (.exr)".into(),
+            scratch("missing_sky.hdr"),
+            "cannot read Radiance HDR".into(),
+        ),
+        (
+            PathBuf::from("sky.png"),
+            "environment maps are read from OpenEXR (.exr) or Radiance HDR (.hdr) files".into(),
         ),
         (text, "not an OpenEXR file".into()),
+        (text_hdr, "cannot read Radiance HDR".into()),
         (
             nan,
             "texel (1, 0) (column, row from the top) is 1 NaN 0".into(),

@@ -102,7 +102,7 @@ pub struct Args {
           action = clap::ArgAction::Set)]
     pub region: Option<Vec<u32>>,
 
-    /// Environment map: a latitude–longitude OpenEXR image lighting the scene from every direction (row 0 looks up, +y; the middle column along +x), seen by camera rays
+    /// Environment map: a latitude–longitude image (OpenEXR .exr or Radiance .hdr) lighting the scene from every direction (row 0 looks up, +y; the middle column along +x), seen by camera rays
     #[arg(short = 'e', long = "envmap", value_name = "FILE")]
     pub envmap: Option<PathBuf>,
 

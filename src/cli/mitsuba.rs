@@ -62,7 +62,7 @@ pub struct MitsubaArgs {
     pub scene: PathBuf,
     /// Directory to write scene.xml and meshes/ into (created if missing)
     pub out: PathBuf,
-    /// Environment map (.exr), as wavepath's -e
+    /// Environment map (.exr or .hdr), as wavepath's -e
     #[arg(short = 'e', long = "envmap", value_name = "FILE")]
     pub envmap: Option<PathBuf>,
     /// Samples per pixel
