@@ -88,7 +88,7 @@ impl Estimator {
         wavepath converge --make-reference -s 1024 -m 5 -r 480 360 --ref ref.exr scene.dae\n  \
         wavepath converge -m 5 -r 480 360 --ref ref.exr --estimators hemisphere,light \
         --max-spp 256 --csv conv.csv scene.dae\n\
-        The render flags are those of `wavepath --help`, but for -f, -a, -p, -e, \
+        The render flags are those of `wavepath --help`, but for -f, -a, -p, \
         --no-adaptive, --tonemap and --stats, and --shading takes only path; -s is the \
         reference's spp, given only with --make-reference."
 )]
