@@ -33,7 +33,7 @@ use crate::lanes::{self, LANES};
 use crate::prefetch::prefetch;
 use crate::sampling::slots::SlotTable;
 use crate::scene::EnvironmentMap;
-use crate::scene::environment::{azimuth, direction, polar_cosine};
+use crate::scene::environment::{azimuth, directions, polar_cosine};
 
 /// Slots per choice: a draw in [0, 1) holds 24 bits.
 const SLOTS: u64 = 1 << 24;
@@ -149,35 +149,36 @@ impl EnvironmentLight {
             prefetch(&self.column_ends[j * w + self.column_guides[j].first(sv)]);
             (slots[lane], rows[lane]) = ((su, sv), j);
         }
-        let mut cells = [Cell::default(); LANES];
+        let (mut x, mut cos_theta, mut pdf) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
         for lane in lanes::each(lanes) {
             let ((su, sv), j, jitter) = (slots[lane], rows[lane], draws[lane].2);
             let fy = within(owned(&self.row_ends, j), su, jitter);
             let columns = self.columns(j);
             let i = self.column_guides[j].choose(columns, sv);
             let fx = within(owned(columns, i), sv, jitter >> 16);
-            let cos_theta = self.edge_cos[j] + fy * (self.edge_cos[j + 1] - self.edge_cos[j]);
-            let x = i as f64 + fx;
-            // The map position of the direction, found from the draw
-            // rather than from the direction (one arc cosine instead of
-            // two inverse trigonometric functions).
-            let y = cos_theta.clamp(-1.0, 1.0).acos() / PI * f64::from(self.map.height());
-            self.map.prefetch(x, y);
+            cos_theta[lane] = self.edge_cos[j] + fy * (self.edge_cos[j + 1] - self.edge_cos[j]);
+            x[lane] = i as f64 + fx;
             let probability = probability(&self.row_ends, j) * probability(columns, i);
-            cells[lane] = Cell {
-                x,
-                y,
-                cos_theta,
-                pdf: probability / self.cell_solid_angle(j),
-            };
+            pdf[lane] = probability / self.cell_solid_angle(j);
         }
+        // The map position of each direction, found from the draw rather
+        // than from the direction (one arc cosine instead of two inverse
+        // trigonometric functions); the arc cosines, sines and cosines
+        // four lanes at a time.
+        let four = |v: &[f64; LANES], k: usize| -> [f64; 4] { v[k..k + 4].try_into().unwrap() };
+        let phi = x.map(|x| azimuth(x, self.map.width()));
+        let [y0, y1] = [0, 4].map(|k| self.map.rows_at(four(&cos_theta, k)));
+        let y = |lane: usize| if lane < 4 { y0[lane] } else { y1[lane - 4] };
+        for lane in lanes::each(lanes) {
+            self.map.prefetch(x[lane], y(lane));
+        }
+        let [d0, d1] = [0, 4].map(|k| directions(four(&cos_theta, k), four(&phi, k)));
         let mut out = [EnvironmentSample::default(); LANES];
         for lane in lanes::each(lanes) {
-            let c = cells[lane];
             out[lane] = EnvironmentSample {
-                direction: direction(c.cos_theta, azimuth(c.x, self.map.width())),
-                radiance: self.map.at(c.x, c.y),
-                pdf: c.pdf,
+                direction: if lane < 4 { d0[lane] } else { d1[lane - 4] },
+                radiance: self.map.at(x[lane], y(lane)),
+                pdf: pdf[lane],
             };
         }
         out
@@ -247,13 +248,21 @@ impl EnvironmentLight {
     /// The map position of direction `d` (any length but 0), with the
     /// texels and slot ends that [`escaping_at`](Self::escaping_at) will
     /// read there requested (see [`prefetch`](crate::prefetch)).
-    #[inline(never)]
     pub fn locate(&self, d: Vec3) -> (f64, f64) {
-        let (x, y) = self.map.position(d);
-        self.map.prefetch(x, y);
-        let (j, i) = self.cell(x, y);
-        prefetch(&self.column_ends[j * self.map.width() as usize + i]);
-        (x, y)
+        self.locate_lanes([d; 4], 1)[0]
+    }
+
+    /// [`locate`](Self::locate) for the first `count` of four directions
+    /// (the others' positions are meaningless).
+    #[inline(never)]
+    pub fn locate_lanes(&self, d: [Vec3; 4], count: usize) -> [(f64, f64); 4] {
+        let positions = self.map.positions(d);
+        for &(x, y) in &positions[..count] {
+            self.map.prefetch(x, y);
+            let (j, i) = self.cell(x, y);
+            prefetch(&self.column_ends[j * self.map.width() as usize + i]);
+        }
+        positions
     }
 
     /// [`escaping`](Self::escaping) at the map position
@@ -339,15 +348,6 @@ fn owned(ends: &[u32], i: usize) -> std::ops::Range<u32> {
 fn probability(ends: &[u32], i: usize) -> f64 {
     let s = owned(ends, i);
     f64::from(s.end - s.start) / SLOTS as f64
-}
-
-/// Where a sample fell: its map position, cos θ and density.
-#[derive(Clone, Copy, Debug, Default)]
-struct Cell {
-    x: f64,
-    y: f64,
-    cos_theta: f64,
-    pdf: f64,
 }
 
 /// A direction drawn from an environment map.

@@ -9,7 +9,10 @@
 //! of the four nearest texel centres, wrapping around in φ and clamped at
 //! the poles.
 
+use std::f64::consts::{PI, TAU};
+
 use glam::Vec3;
+use wide::f64x4;
 
 use crate::prefetch::prefetch;
 
@@ -110,14 +113,34 @@ impl EnvironmentMap {
     /// Where direction `d` falls on the map, in texels: `x` in
     /// `[0, width]` along φ, `y` in `[0, height]` along θ.
     pub fn position(&self, d: Vec3) -> (f64, f64) {
-        let d = d.as_dvec3();
-        let d = d / d.length();
-        let theta = d.y.clamp(-1.0, 1.0).acos();
-        let phi = (-d.z).atan2(d.x) + std::f64::consts::PI;
-        (
-            phi / std::f64::consts::TAU * f64::from(self.width),
-            theta / std::f64::consts::PI * f64::from(self.height),
-        )
+        self.positions([d; 4])[0]
+    }
+
+    /// [`position`](Self::position) of four directions at once, their
+    /// arc tangents and arc cosines in vector lanes (Agner Fog's
+    /// polynomials, as `wide` has them: within a few units in the last
+    /// place of f64, a hundred million times finer than a texel of the
+    /// largest map).
+    #[inline]
+    pub fn positions(&self, d: [Vec3; 4]) -> [(f64, f64); 4] {
+        let unit = d.map(|d| {
+            let d = d.as_dvec3();
+            d / d.length()
+        });
+        let axis = |k: usize| f64x4::new([unit[0][k], unit[1][k], unit[2][k], unit[3][k]]);
+        let phi = (-axis(2)).atan2(axis(0)) + f64x4::splat(PI);
+        let x = (phi * f64x4::splat(f64::from(self.width) / TAU)).to_array();
+        let y = self.rows_at(axis(1).to_array());
+        [(x[0], y[0]), (x[1], y[1]), (x[2], y[2]), (x[3], y[3])]
+    }
+
+    /// The row positions `y` (in texels) of four directions of polar
+    /// cosines `cos_theta`.
+    #[inline]
+    pub fn rows_at(&self, cos_theta: [f64; 4]) -> [f64; 4] {
+        let one = f64x4::splat(1.0);
+        let theta = f64x4::new(cos_theta).max(-one).min(one).acos();
+        (theta * f64x4::splat(f64::from(self.height) / PI)).to_array()
     }
 
     /// The bilinear interpolation at map position `(x, y)` (in texels;
@@ -183,10 +206,23 @@ struct Footprint {
 /// cos θ, and sin θ = √((1 − c)(1 + c)) keeps its digits there.
 #[inline]
 pub fn direction(cos_theta: f64, phi: f64) -> Vec3 {
-    let c = cos_theta.clamp(-1.0, 1.0);
-    let sin_theta = ((1.0 - c) * (1.0 + c)).sqrt();
-    let (sin_phi, cos_phi) = phi.sin_cos();
-    glam::DVec3::new(-cos_phi * sin_theta, c, sin_phi * sin_theta).as_vec3()
+    directions([cos_theta; 4], [phi; 4])[0]
+}
+
+/// [`direction`] for four lanes at once (sines and cosines in vector
+/// lanes, as in [`EnvironmentMap::positions`]).
+#[inline]
+pub fn directions(cos_theta: [f64; 4], phi: [f64; 4]) -> [Vec3; 4] {
+    let one = f64x4::splat(1.0);
+    let c = f64x4::new(cos_theta).max(-one).min(one);
+    let sin_theta = ((one - c) * (one + c)).sqrt();
+    let (sin_phi, cos_phi) = f64x4::new(phi).sin_cos();
+    let (x, y, z) = (
+        (-cos_phi * sin_theta).to_array(),
+        c.to_array(),
+        (sin_phi * sin_theta).to_array(),
+    );
+    std::array::from_fn(|k| glam::DVec3::new(x[k], y[k], z[k]).as_vec3())
 }
 
 /// The azimuth of a column position `x` (in texels) of a map `width` wide.

@@ -284,17 +284,30 @@ fn sees_map<'a>(inputs: &'a ShadeInputs, paths: &Paths, i: usize) -> Option<&'a 
 /// requested before the first is read (a map of 2048 columns is ~25 MB,
 /// and most lookups miss the cache).
 fn locate_escapes(inputs: &ShadeInputs, hits: &Hits, paths: &Paths, escapes: &mut Vec<(f64, f64)>) {
-    if inputs.lights.environment.is_none() {
+    let Some(environment) = inputs.lights.environment.as_deref() else {
         return;
-    }
+    };
     // Only entries written below are read (by `on_miss`, under the same
     // `sees_map`), so a longer buffer's stale ones need no clearing.
     escapes.resize(paths.len(), (0.0, 0.0));
-    for (i, at) in escapes.iter_mut().enumerate() {
-        if !hits.is_hit(i)
-            && let Some(environment) = sees_map(inputs, paths, i)
-        {
-            *at = environment.locate(paths.rays.direction(i));
+    // Four at a time: the positions' arc tangents and cosines are
+    // computed in vector lanes.
+    let (mut members, mut directions, mut count) = ([0; 4], [Vec3::ZERO; 4], 0);
+    for i in 0..=paths.len() {
+        let done = i == paths.len();
+        if !done {
+            if hits.is_hit(i) || sees_map(inputs, paths, i).is_none() {
+                continue;
+            }
+            (members[count], directions[count]) = (i, paths.rays.direction(i));
+            count += 1;
+        }
+        if count == 4 || (done && count > 0) {
+            let found = environment.locate_lanes(directions, count);
+            for k in 0..count {
+                escapes[members[k]] = found[k];
+            }
+            count = 0;
         }
     }
 }
