@@ -166,13 +166,18 @@ impl EnvironmentLight {
         // trigonometric functions); the arc cosines, sines and cosines
         // four lanes at a time.
         let four = |v: &[f64; LANES], k: usize| -> [f64; 4] { v[k..k + 4].try_into().unwrap() };
-        let phi = x.map(|x| azimuth(x, self.map.width()));
-        let [y0, y1] = [0, 4].map(|k| self.map.rows_at(four(&cos_theta, k)));
+        // (`from_fn`, not `array::map`, which is compiled out of line here.)
+        let phi: [f64; LANES] = std::array::from_fn(|k| azimuth(x[k], self.map.width()));
+        let (y0, y1) = (
+            self.map.rows_at(four(&cos_theta, 0)),
+            self.map.rows_at(four(&cos_theta, 4)),
+        );
         let y = |lane: usize| if lane < 4 { y0[lane] } else { y1[lane - 4] };
         for lane in lanes::each(lanes) {
             self.map.prefetch(x[lane], y(lane));
         }
-        let [d0, d1] = [0, 4].map(|k| directions(four(&cos_theta, k), four(&phi, k)));
+        let d0 = directions(four(&cos_theta, 0), four(&phi, 0));
+        let d1 = directions(four(&cos_theta, 4), four(&phi, 4));
         let mut out = [EnvironmentSample::default(); LANES];
         for lane in lanes::each(lanes) {
             out[lane] = EnvironmentSample {

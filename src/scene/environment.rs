@@ -123,8 +123,10 @@ impl EnvironmentMap {
     /// largest map).
     #[inline]
     pub fn positions(&self, d: [Vec3; 4]) -> [(f64, f64); 4] {
-        let unit = d.map(|d| {
-            let d = d.as_dvec3();
+        // (`from_fn`, not `array::map`: the latter is compiled out of
+        // line here, a call per lane.)
+        let unit: [glam::DVec3; 4] = std::array::from_fn(|k| {
+            let d = d[k].as_dvec3();
             d / d.length()
         });
         let axis = |k: usize| f64x4::new([unit[0][k], unit[1][k], unit[2][k], unit[3][k]]);
