@@ -44,6 +44,7 @@ use super::triangle::{
 };
 use super::{Lanes, WIDTH};
 use crate::lanes::{from_bits, per_axis, to_bits};
+use crate::prefetch::prefetch_all;
 use crate::ray::NO_HIT;
 
 /// γ₃ = 3ε / (1 − 3ε) for f32 (ε = 2⁻²⁴, half an ULP of 1).
@@ -549,6 +550,16 @@ fn leaf_spheres(spheres: &[PackedSphere], o: Vec3, d: Vec3, best: &mut Closest, 
 }
 
 impl Scene<'_> {
+    /// Requests the lines of node or leaf `child` (a leaf's first group).
+    #[inline(always)]
+    pub fn prefetch_child(&self, child: ChildRef) {
+        if !child.is_leaf() {
+            prefetch_all(&self.nodes[child.index()]);
+        } else if !child.is_sphere() {
+            prefetch_all(&self.tri_groups[child.index()]);
+        }
+    }
+
     /// Tests one ray against the primitives of `leaf`, narrowing `best`.
     /// `tri` is the ray's triangle-test setup; `WALK` as for
     /// [`group_closest`].
@@ -865,6 +876,11 @@ pub(crate) fn closest<const WALK: u8>(
                     None => return best,
                 }
             };
+        }
+        // The entry on top of the stack is most often the next visited:
+        // its lines arrive while this leaf is tested.
+        if sp > 0 {
+            scene.prefetch_child(ChildRef(stack[sp - 1].child));
         }
         scene.leaf_closest::<WALK>(current, (o, d), &tri, &mut best, work);
         match pop(stack, &mut sp, best.t) {
