@@ -544,23 +544,17 @@ fn environment_maps_light_the_scene_and_bad_ones_are_named() {
     // down on the ground, so the image's top corners show the map below
     // its horizon (one colour there, to rounding), not the blue above it.
     let root = env!("CARGO_MANIFEST_DIR");
-    let out = scratch("outdoor.exr");
+    // The shipped lightless scene under `map`, 2 spp, `-m 2`, at `size`.
+    let outdoor = |map: &str, size: [&str; 2], out: PathBuf| {
+        let args = [
+            "-q", "-s", "2", "-m", "2", "-r", size[0], size[1], "-e", map,
+        ];
+        let o = render_to(&format!("{root}/scenes/outdoor.dae"), &out, &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        read_image(&out).unwrap()
+    };
     let sky = format!("{root}/scenes/sky.exr");
-    let args = [
-        "-q",
-        "-s",
-        "2",
-        "-m",
-        "2",
-        "-r",
-        "480",
-        "360",
-        "-e",
-        sky.as_str(),
-    ];
-    let o = render_to(&format!("{root}/scenes/outdoor.dae"), &out, &args);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let image = read_image(&out).unwrap();
+    let image = outdoor(&sky, ["480", "360"], scratch("outdoor.exr"));
     let ground = Vec3::new(0.15, 0.12, 0.09);
     for corner in [image.at(0, 0), image.at(479, 0)] {
         assert!((corner - ground).abs().max_element() < 1e-6, "{corner}");
@@ -585,25 +579,8 @@ fn environment_maps_light_the_scene_and_bad_ones_are_named() {
     let exr_map = scratch("sky_of_hdr.exr");
     exr::prelude::write_rgb_file(&exr_map, 4, 2, |x, y| texels[y * 4 + x].into()).unwrap();
     let renders = [&hdr, &exr_map].map(|map| {
-        let out = scratch(&format!(
-            "under_{}.exr",
-            map.extension().unwrap().to_str().unwrap()
-        ));
-        let args = [
-            "-q",
-            "-s",
-            "2",
-            "-m",
-            "2",
-            "-r",
-            "64",
-            "48",
-            "-e",
-            map.to_str().unwrap(),
-        ];
-        let o = render_to(&format!("{root}/scenes/outdoor.dae"), &out, &args);
-        assert!(o.status.success(), "{}", stderr(&o));
-        read_image(&out).unwrap()
+        let name = format!("under_{}.exr", map.extension().unwrap().to_str().unwrap());
+        outdoor(map.to_str().unwrap(), ["64", "48"], scratch(&name))
     });
     assert!(renders[0].pixels.iter().any(|p| p.max_element() > 0.0));
     assert!(
