@@ -593,6 +593,13 @@ fn environment_maps_light_the_scene_and_bad_ones_are_named() {
     std::fs::write(&text, "not an image").unwrap();
     let text_hdr = scratch("not_hdr.hdr");
     std::fs::write(&text_hdr, "not an image").unwrap();
+    // A header alone can claim 10¹⁰ texels: refused before any is read.
+    let huge_hdr = scratch("huge.hdr");
+    std::fs::write(
+        &huge_hdr,
+        "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\n",
+    )
+    .unwrap();
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.dae");
     for (map, says) in [
         (scratch("missing_sky.exr"), "cannot read EXR".to_string()),
@@ -606,6 +613,7 @@ fn environment_maps_light_the_scene_and_bad_ones_are_named() {
         ),
         (text, "not an OpenEXR file".into()),
         (text_hdr, "cannot read Radiance HDR".into()),
+        (huge_hdr, "claims 100000x100000 pixels".into()),
         (
             nan,
             "texel (1, 0) (column, row from the top) is 1 NaN 0".into(),

@@ -342,36 +342,23 @@ fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
 }
 
 /// The environment map of `-e`: a latitude–longitude OpenEXR image, as
-/// the CS184 renderer reads (read before the scene, which may be large).
+/// the CS184 renderer reads, or a Radiance HDR one (read before the
+/// scene, which may be large).
 pub(crate) fn load_environment(path: &std::path::Path) -> Result<EnvironmentMap> {
     let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-    let (width, height, texels) = if extension.eq_ignore_ascii_case("exr") {
-        let image = output::read_image(path).map_err(|e| anyhow::anyhow!("-e {e:#}"))?;
-        (image.width, image.height, image.pixels)
+    let image = if extension.eq_ignore_ascii_case("exr") {
+        output::read_image(path)
     } else if extension.eq_ignore_ascii_case("hdr") {
-        read_radiance_hdr(path)?
+        output::read_radiance_hdr(path)
     } else {
         bail!(
             "-e {}: environment maps are read from OpenEXR (.exr) or Radiance HDR (.hdr) files",
             path.display()
         );
     };
-    EnvironmentMap::new(width, height, texels)
+    let image = image.map_err(|e| anyhow::anyhow!("-e {e:#}"))?;
+    EnvironmentMap::new(image.width, image.height, image.pixels)
         .map_err(|e| anyhow::anyhow!("-e {}: {e}", path.display()))
-}
-
-/// A Radiance RGBE file (`.hdr`, the other common format of downloaded
-/// latitude–longitude maps), decoded to linear RGB.
-fn read_radiance_hdr(path: &std::path::Path) -> Result<(u32, u32, Vec<glam::Vec3>)> {
-    let file = std::fs::File::open(path)
-        .map_err(|e| anyhow::anyhow!("-e {}: cannot read Radiance HDR: {e}", path.display()))?;
-    let decoded = image::codecs::hdr::HdrDecoder::new(std::io::BufReader::new(file))
-        .and_then(image::DynamicImage::from_decoder)
-        .map_err(|e| anyhow::anyhow!("-e {}: cannot read Radiance HDR: {e}", path.display()))?
-        .into_rgb32f();
-    let (width, height) = decoded.dimensions();
-    let texels = decoded.pixels().map(|p| glam::Vec3::from(p.0)).collect();
-    Ok((width, height, texels))
 }
 
 /// The text of a `-c` file. Such files hold 28 or 30 numbers, so at most

@@ -290,6 +290,42 @@ pub fn read_image_with(path: &Path, curve: ToneCurve) -> Result<Image> {
     }
 }
 
+/// Refuses a file whose header claims more than [`MAX_PIXELS`](super::MAX_PIXELS)
+/// pixels: a few hundred bytes can claim 1e10, which a decoder would try to
+/// allocate before finding the data missing.
+fn check_claimed_size(path: &Path, format: &str, width: u64, height: u64) -> Result<()> {
+    if width * height > super::MAX_PIXELS {
+        bail!(
+            "{}: the {format} claims {width}x{height} pixels, more than the 2^{} this program reads",
+            path.display(),
+            super::MAX_PIXELS.trailing_zeros()
+        );
+    }
+    Ok(())
+}
+
+/// Reads a Radiance RGBE file (`.hdr`, a common format of downloaded
+/// latitude–longitude maps) as linear RGB.
+pub fn read_radiance_hdr(path: &Path) -> Result<Image> {
+    use image::ImageDecoder;
+    let cannot = |e: &dyn std::fmt::Display| {
+        anyhow::anyhow!("{}: cannot read Radiance HDR: {e}", path.display())
+    };
+    let file = std::fs::File::open(path).map_err(|e| cannot(&e))?;
+    let decoder = image::codecs::hdr::HdrDecoder::new(std::io::BufReader::new(file))
+        .map_err(|e| cannot(&e))?;
+    let (width, height) = decoder.dimensions();
+    check_claimed_size(path, "Radiance HDR file", width.into(), height.into())?;
+    let decoded = image::DynamicImage::from_decoder(decoder)
+        .map_err(|e| cannot(&e))?
+        .into_rgb32f();
+    let mut image = Image::new(width, height);
+    for (dst, p) in image.pixels.iter_mut().zip(decoded.pixels()) {
+        *dst = Vec3::from(p.0);
+    }
+    Ok(image)
+}
+
 fn cannot_read_exr(path: &Path, e: exr::error::Error) -> anyhow::Error {
     anyhow::anyhow!("{}: cannot read EXR: {e}", path.display())
 }
@@ -320,15 +356,7 @@ fn read_exr(path: &Path) -> Result<Image> {
     let meta = read_exr_header(path)?;
     for header in &meta.headers {
         let size = header.layer_size;
-        if size.0 as u64 * size.1 as u64 > super::MAX_PIXELS {
-            bail!(
-                "{}: the EXR claims {}x{} pixels, more than the 2^{} this program reads",
-                path.display(),
-                size.0,
-                size.1,
-                super::MAX_PIXELS.trailing_zeros()
-            );
-        }
+        check_claimed_size(path, "EXR", size.0 as u64, size.1 as u64)?;
     }
     let decoded = read_first_flat_layer_from_file(path).map_err(|e| cannot_read_exr(path, e))?;
     let layer = decoded.layer_data;
