@@ -31,7 +31,7 @@ use glam::Vec3;
 use super::lights::LightSample;
 use crate::lanes::{self, LANES};
 use crate::prefetch::prefetch;
-use crate::sampling::slots::SlotTable;
+use crate::sampling::slots::{self, SlotTable, choose, owned};
 use crate::scene::EnvironmentMap;
 use crate::scene::environment::{azimuth, directions, polar_cosine};
 
@@ -168,21 +168,16 @@ impl EnvironmentLight {
         let four = |v: &[f64; LANES], k: usize| -> [f64; 4] { v[k..k + 4].try_into().unwrap() };
         // (`from_fn`, not `array::map`, which is compiled out of line here.)
         let phi: [f64; LANES] = std::array::from_fn(|k| azimuth(x[k], self.map.width()));
-        let (y0, y1) = (
-            self.map.rows_at(four(&cos_theta, 0)),
-            self.map.rows_at(four(&cos_theta, 4)),
-        );
-        let y = |lane: usize| if lane < 4 { y0[lane] } else { y1[lane - 4] };
+        let y = by_fours(|k| self.map.rows_at(four(&cos_theta, k)));
         for lane in lanes::each(lanes) {
-            self.map.prefetch(x[lane], y(lane));
+            self.map.prefetch(x[lane], y[lane]);
         }
-        let d0 = directions(four(&cos_theta, 0), four(&phi, 0));
-        let d1 = directions(four(&cos_theta, 4), four(&phi, 4));
+        let direction = by_fours(|k| directions(four(&cos_theta, k), four(&phi, k)));
         let mut out = [EnvironmentSample::default(); LANES];
         for lane in lanes::each(lanes) {
             out[lane] = EnvironmentSample {
-                direction: if lane < 4 { d0[lane] } else { d1[lane - 4] },
-                radiance: self.map.at(x[lane], y(lane)),
+                direction: direction[lane],
+                radiance: self.map.at(x[lane], y[lane]),
                 pdf: pdf[lane],
             };
         }
@@ -283,15 +278,17 @@ impl EnvironmentLight {
     }
 }
 
-/// The ends of `table`'s `n` choices' slots (all 0 without a table).
-fn ends(table: Option<&SlotTable>, n: usize) -> impl Iterator<Item = u32> + '_ {
-    (0..n).map(move |i| table.map_or(0, |t| t.slots(i).end as u32))
+/// Eight lanes of a function computed four lanes at a time, `f(0)` giving
+/// lanes 0–3 and `f(4)` lanes 4–7.
+#[inline(always)]
+fn by_fours<T: Copy + Default>(f: impl Fn(usize) -> [T; 4]) -> [T; LANES] {
+    let (low, high) = (f(0), f(4));
+    std::array::from_fn(|k| if k < 4 { low[k] } else { high[k - 4] })
 }
 
-/// The choice whose slots (ending at `ends`) hold `slot`.
-#[inline]
-fn choose(ends: &[u32], slot: u32) -> usize {
-    ends.partition_point(|&end| end <= slot)
+/// The ends of `table`'s `n` choices' slots (all 0 without a table).
+fn ends(table: Option<&SlotTable>, n: usize) -> impl Iterator<Item = u32> + '_ {
+    (0..n).map(move |i| table.map_or(0, |t| t.ends()[i] as u32))
 }
 
 /// Buckets of a [`Guide`]: sixteen `u32`, one cache line.
@@ -342,17 +339,10 @@ impl Guide {
     }
 }
 
-/// The slots of choice `i` (ending at `ends`).
-#[inline]
-fn owned(ends: &[u32], i: usize) -> std::ops::Range<u32> {
-    (if i == 0 { 0 } else { ends[i - 1] })..ends[i]
-}
-
 /// The probability of choice `i` (its share of the 2²⁴ slots).
 #[inline]
 fn probability(ends: &[u32], i: usize) -> f64 {
-    let s = owned(ends, i);
-    f64::from(s.end - s.start) / SLOTS as f64
+    slots::probability(ends, i, SLOTS)
 }
 
 /// A direction drawn from an environment map.

@@ -57,21 +57,23 @@ impl SlotTable {
     /// The choice that owns `slot` (< `total`).
     #[inline]
     pub fn choose(&self, slot: u64) -> usize {
-        // The last end is `total`, past every slot.
-        self.ends.partition_point(|&end| end <= slot)
+        choose(&self.ends, slot)
     }
 
     /// The slots of choice `i`: `start..end`.
     #[inline]
     pub fn slots(&self, i: usize) -> std::ops::Range<u64> {
-        let start = if i == 0 { 0 } else { self.ends[i - 1] };
-        start..self.ends[i]
+        owned(&self.ends, i)
     }
 
     /// The probability that choice `i` is made.
     pub fn probability(&self, i: usize) -> f64 {
-        let s = self.slots(i);
-        (s.end - s.start) as f64 / self.total as f64
+        probability(&self.ends, i, self.total)
+    }
+
+    /// Where each choice's slots end.
+    pub fn ends(&self) -> &[u64] {
+        &self.ends
     }
 
     /// Number of choices (those of weight 0 included).
@@ -82,6 +84,27 @@ impl SlotTable {
     pub fn is_empty(&self) -> bool {
         self.ends.is_empty()
     }
+}
+
+/// The choice whose slots, ending at `ends` (a table's ends, in any
+/// integer type that holds them), hold `slot`.
+#[inline]
+pub fn choose<E: Copy + Ord>(ends: &[E], slot: E) -> usize {
+    // The last end is the total, past every slot.
+    ends.partition_point(|&end| end <= slot)
+}
+
+/// The slots of choice `i` among `ends`: `start..end`.
+#[inline]
+pub fn owned<E: Copy + Default>(ends: &[E], i: usize) -> std::ops::Range<E> {
+    (if i == 0 { E::default() } else { ends[i - 1] })..ends[i]
+}
+
+/// The probability of choice `i` among `ends`, of `total` slots.
+#[inline]
+pub fn probability<E: Copy + Default + Into<u64>>(ends: &[E], i: usize, total: u64) -> f64 {
+    let s = owned(ends, i);
+    (s.end.into() - s.start.into()) as f64 / total as f64
 }
 
 #[cfg(test)]
