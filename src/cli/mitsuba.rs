@@ -247,19 +247,13 @@ pub fn write(scene: &Scene, settings: &Export, dir: &Path) -> Result<Vec<String>
                         map.width()
                     ));
                 }
-                let _ = writeln!(
-                    xml,
-                    "  <emitter type=\"envmap\">\n    <string name=\"filename\" value=\"meshes/{name}\"/>\n  </emitter>"
-                );
+                envmap_emitter(&mut xml, &name);
             }
             Light::Hemisphere { radiance } => {
                 let name = format!("sky{}.exr", sky_maps);
                 sky_maps += 1;
                 write_sky(&meshes.join(&name), *radiance)?;
-                let _ = writeln!(
-                    xml,
-                    "  <emitter type=\"envmap\">\n    <string name=\"filename\" value=\"meshes/{name}\"/>\n  </emitter>"
-                );
+                envmap_emitter(&mut xml, &name);
             }
         }
     }
@@ -418,6 +412,14 @@ fn write_environment(path: &Path, map: &EnvironmentMap) -> Result<()> {
         }
     }
     output::write_exr(&image, path, false)
+}
+
+/// An `envmap` emitter of the map written to `meshes/{name}`.
+fn envmap_emitter(xml: &mut String, name: &str) {
+    let _ = writeln!(
+        xml,
+        "  <emitter type=\"envmap\">\n    <string name=\"filename\" value=\"meshes/{name}\"/>\n  </emitter>"
+    );
 }
 
 /// `x y z` as Mitsuba's XML writes vectors.
