@@ -542,10 +542,9 @@ fn continue_paths(
         .store([&mut r.org_x, &mut r.org_y, &mut r.org_z], start, end);
     d.store([&mut r.dir_x, &mut r.dir_y, &mut r.dir_z], start, end);
     lanes::store(&mut r.t_max[..end], start, f32x8::splat(f32::INFINITY));
-    let throughput = throughput.to_array();
     for lane in lanes::each(alive) {
         let i = start + lane;
-        paths.throughput[i] = throughput[lane];
+        paths.throughput[i] = throughput.lane(lane);
         paths.depth[i] += 1;
         paths.specular[i] = false;
         paths.alive[i] = true;
