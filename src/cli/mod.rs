@@ -346,17 +346,16 @@ fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
 /// scene, which may be large).
 pub(crate) fn load_environment(path: &std::path::Path) -> Result<EnvironmentMap> {
     let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-    let image = if extension.eq_ignore_ascii_case("exr") {
-        output::read_image(path)
-    } else if extension.eq_ignore_ascii_case("hdr") {
-        output::read_radiance_hdr(path)
-    } else {
+    if !["exr", "hdr"]
+        .iter()
+        .any(|e| extension.eq_ignore_ascii_case(e))
+    {
         bail!(
             "-e {}: environment maps are read from OpenEXR (.exr) or Radiance HDR (.hdr) files",
             path.display()
         );
-    };
-    let image = image.map_err(|e| anyhow::anyhow!("-e {e:#}"))?;
+    }
+    let image = output::read_rgb(path).map_err(|e| anyhow::anyhow!("-e {e:#}"))?;
     EnvironmentMap::new(image.width, image.height, image.pixels)
         .map_err(|e| anyhow::anyhow!("-e {}: {e}", path.display()))
 }

@@ -306,7 +306,7 @@ fn check_claimed_size(path: &Path, format: &str, width: u64, height: u64) -> Res
 
 /// Reads a Radiance RGBE file (`.hdr`, a common format of downloaded
 /// latitude–longitude maps) as linear RGB.
-pub fn read_radiance_hdr(path: &Path) -> Result<Image> {
+pub fn read_radiance_hdr(path: &Path) -> Result<RgbImage> {
     use image::ImageDecoder;
     let cannot = |e: &dyn std::fmt::Display| {
         anyhow::anyhow!("{}: cannot read Radiance HDR: {e}", path.display())
@@ -319,11 +319,12 @@ pub fn read_radiance_hdr(path: &Path) -> Result<Image> {
     let decoded = image::DynamicImage::from_decoder(decoder)
         .map_err(|e| cannot(&e))?
         .into_rgb32f();
-    let mut image = Image::new(width, height);
-    for (dst, p) in image.pixels.iter_mut().zip(decoded.pixels()) {
-        *dst = Vec3::from(p.0);
-    }
-    Ok(image)
+    let pixels = decoded.pixels().map(|p| Vec3::from(p.0)).collect();
+    Ok(RgbImage {
+        width,
+        height,
+        pixels,
+    })
 }
 
 fn cannot_read_exr(path: &Path, e: exr::error::Error) -> anyhow::Error {
@@ -348,9 +349,12 @@ fn read_exr_header(path: &Path) -> Result<exr::meta::MetaData> {
     exr::meta::MetaData::read_from_file(path, false).map_err(|e| cannot_read_exr(path, e))
 }
 
-/// Reads the first layer of an EXR: R, G, B (or Y for grey) are required.
-fn read_exr(path: &Path) -> Result<Image> {
-    use exr::prelude::{FlatSamples, read_first_flat_layer_from_file};
+/// One decoded EXR layer: every channel's samples, whatever their type.
+type ExrLayer = exr::prelude::Layer<exr::prelude::AnyChannels<exr::prelude::FlatSamples>>;
+
+/// The first layer of an EXR, decoded, with its width and height.
+fn decode_exr(path: &Path) -> Result<(ExrLayer, usize, usize)> {
+    use exr::prelude::read_first_flat_layer_from_file;
     // The header first: a few hundred bytes can claim 1e10 pixels, which
     // the decoder would try to allocate before finding the data missing.
     let meta = read_exr_header(path)?;
@@ -361,16 +365,6 @@ fn read_exr(path: &Path) -> Result<Image> {
     let decoded = read_first_flat_layer_from_file(path).map_err(|e| cannot_read_exr(path, e))?;
     let layer = decoded.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());
-    // Channels are read in place, not copied: the decoded layer and the
-    // image are all a reference takes in memory.
-    let find = |name: &str| {
-        layer
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name.eq_case_insensitive(name))
-            .map(|c| &c.sample_data)
-    };
     // Subsampled channels (e.g. chroma) have fewer samples than pixels.
     if let Some(c) = layer
         .channel_data
@@ -384,6 +378,32 @@ fn read_exr(path: &Path) -> Result<Image> {
             c.name
         );
     }
+    Ok((layer, w, h))
+}
+
+/// The samples of the channel called `name` (any case), if the layer has one.
+fn exr_channel<'a>(layer: &'a ExrLayer, name: &str) -> Option<&'a exr::prelude::FlatSamples> {
+    layer
+        .channel_data
+        .list
+        .iter()
+        .find(|c| c.name.eq_case_insensitive(name))
+        .map(|c| &c.sample_data)
+}
+
+/// Three channels' samples as RGB pixels.
+fn rgb_values<'a>(
+    [r, g, b]: [&'a exr::prelude::FlatSamples; 3],
+) -> impl Iterator<Item = Vec3> + 'a {
+    r.values_as_f32()
+        .zip(g.values_as_f32())
+        .zip(b.values_as_f32())
+        .map(|((r, g), b)| Vec3::new(r, g, b))
+}
+
+/// The colour channels of a decoded layer: R, G, B, or Y for grey.
+fn exr_colour<'a>(path: &Path, layer: &'a ExrLayer) -> Result<impl Iterator<Item = Vec3> + 'a> {
+    let find = |name| exr_channel(layer, name);
     let rgb = match (find("R"), find("G"), find("B")) {
         (Some(r), Some(g), Some(b)) => [r, g, b],
         _ => match find("Y") {
@@ -391,14 +411,44 @@ fn read_exr(path: &Path) -> Result<Image> {
             None => bail!("{}: EXR has no R, G, B (or Y) channels", path.display()),
         },
     };
-    let mut image = super::Image::new(w as u32, h as u32);
-    fn rgb_values<'a>([r, g, b]: [&'a FlatSamples; 3]) -> impl Iterator<Item = Vec3> + 'a {
-        r.values_as_f32()
-            .zip(g.values_as_f32())
-            .zip(b.values_as_f32())
-            .map(|((r, g), b)| Vec3::new(r, g, b))
+    Ok(rgb_values(rgb))
+}
+
+/// Linear RGB pixels, row 0 at the top: all that an environment map
+/// takes from its file.
+#[derive(Clone, Debug)]
+pub struct RgbImage {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<Vec3>,
+}
+
+/// Reads the colour of an OpenEXR (`.exr`) or Radiance HDR (`.hdr`)
+/// image, nothing else: no [`Image`] with its variance and sample planes
+/// (which would double the memory a large map takes while it loads).
+pub fn read_rgb(path: &Path) -> Result<RgbImage> {
+    let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if extension.eq_ignore_ascii_case("hdr") {
+        return read_radiance_hdr(path);
     }
-    for (dst, v) in image.pixels.iter_mut().zip(rgb_values(rgb)) {
+    let (layer, w, h) = decode_exr(path)?;
+    let pixels = exr_colour(path, &layer)?.collect();
+    Ok(RgbImage {
+        width: w as u32,
+        height: h as u32,
+        pixels,
+    })
+}
+
+/// Reads the first layer of an EXR: R, G, B (or Y for grey) are required.
+fn read_exr(path: &Path) -> Result<Image> {
+    let (layer, w, h) = decode_exr(path)?;
+    // Channels are read in place, not copied: the decoded layer and the
+    // image are all a reference takes in memory.
+    let find = |name| exr_channel(&layer, name);
+    let colour = exr_colour(path, &layer)?;
+    let mut image = super::Image::new(w as u32, h as u32);
+    for (dst, v) in image.pixels.iter_mut().zip(colour) {
         *dst = v;
     }
     if let Some(n) = find("samples") {
