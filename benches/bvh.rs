@@ -8,6 +8,8 @@
 //! BVH_BENCH_SCALING=1 cargo bench --bench bvh -- scaling   # 1k..4M triangle sweep
 //! BVH_BENCH_QUICK=1 cargo bench --bench bvh --features embree  # plain table, see below
 //! BVH_BENCH_PROFILE=primary cargo bench --bench bvh   # one set, traced once, for a profiler
+//! BVH_BENCH_PROFILE=diffuse BVH_BENCH_ENGINE=embree-1 cargo bench --bench bvh --features embree
+//!                                        # the same with one of Embree's modes instead
 //! BVH_BENCH_PROFILE=threads cargo bench --bench bvh --features embree  # 1→all-thread scaling
 //!                                        # (and the machine's own, from two FMA kernels)
 //! BVH_BENCH_PROFILE=batches cargo bench --bench bvh   # per-batch times: is the VM preempting?
@@ -573,6 +575,10 @@ fn best_of(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
 /// only builds the BVH, on all threads): a run short and deterministic
 /// enough for callgrind's instruction counts (which, unlike times on this
 /// shared machine, can tell a 3% change apart) or `perf record`.
+/// `BVH_BENCH_ENGINE=embree-1` (or `embree-8`, `embree-16`; with the
+/// `embree` feature) traces the same rays with that Embree mode instead,
+/// so the two engines' instructions per ray can be set side by side (an
+/// x86-64-v3 build under valgrind makes Embree pick its AVX2 code too).
 fn profile(w: &Workload, kind: &str) {
     let repeat: usize = std::env::var("BVH_BENCH_REPEAT")
         .ok()
@@ -588,6 +594,45 @@ fn profile(w: &Workload, kind: &str) {
         return;
     }
     let bvh = Bvh::build(&w.geometry, Accel::Sah);
+    let engine = std::env::var("BVH_BENCH_ENGINE").unwrap_or_else(|_| "wavepath".into());
+    #[cfg(feature = "embree")]
+    let embree_mode = [
+        embree::Mode::Single,
+        embree::Mode::Packet8,
+        embree::Mode::Packet16,
+    ]
+    .into_iter()
+    .find(|m| m.name() == engine);
+    #[cfg(feature = "embree")]
+    if let Some(mode) = embree_mode {
+        let device = embree::Device::new();
+        let escene = embree::Scene::new(&device, &w.geometry);
+        for set in ray_sets(w, &bvh).iter().filter(|s| s.kind == kind) {
+            let (mut hits, _) = set.buffers();
+            let t0 = std::time::Instant::now();
+            for _ in 0..repeat {
+                for (rays, h) in set.batches.iter().zip(hits.iter_mut()) {
+                    escene.trace(rays, set.shadow, kind == "primary", mode, h);
+                }
+            }
+            let rays = (set.len() * repeat) as f64;
+            let secs = t0.elapsed().as_secs_f64();
+            println!(
+                "{} {} ({engine}): {rays} rays, {:.2} Mrays/s",
+                w.name,
+                kind,
+                rays * 1e-6 / secs
+            );
+        }
+        return;
+    }
+    if engine != "wavepath" {
+        eprintln!(
+            "BVH_BENCH_ENGINE: '{engine}' is not wavepath, embree-1, embree-8 or embree-16 \
+             (Embree's modes need --features embree)"
+        );
+        std::process::exit(2);
+    }
     for set in ray_sets(w, &bvh).iter().filter(|s| s.kind == kind) {
         let t0 = std::time::Instant::now();
         let stats = trace_profiled(&bvh, set, repeat);
