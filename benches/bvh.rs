@@ -627,10 +627,15 @@ fn profile(w: &Workload, kind: &str) {
         return;
     }
     if engine != "wavepath" {
-        eprintln!(
-            "BVH_BENCH_ENGINE: '{engine}' is not wavepath, embree-1, embree-8 or embree-16 \
-             (Embree's modes need --features embree)"
-        );
+        let modes = ["embree-1", "embree-8", "embree-16"];
+        if modes.contains(&engine.as_str()) {
+            eprintln!("BVH_BENCH_ENGINE={engine}: Embree's modes need --features embree");
+        } else {
+            eprintln!(
+                "BVH_BENCH_ENGINE: '{engine}' is not wavepath, {}",
+                modes.join(", ")
+            );
+        }
         std::process::exit(2);
     }
     for set in ray_sets(w, &bvh).iter().filter(|s| s.kind == kind) {
