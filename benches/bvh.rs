@@ -14,6 +14,8 @@
 //!                                        # (and the machine's own, from two FMA kernels)
 //! BVH_BENCH_PROFILE=batches cargo bench --bench bvh   # per-batch times: is the VM preempting?
 //! BVH_BENCH_EMBREE_CONFIG=verbose=2 …   # Embree prints its BVH statistics (SAH cost, nodes)
+//! BVH_BENCH_EMBREE_ROBUST=1 …   # Embree's robust mode (RTC_SCENE_FLAG_ROBUST), for a
+//!                                        # reading at robustness closer to wavepath's own
 //! ```
 //!
 //! `BVH_BENCH_QUICK=1` skips criterion and prints one table row per scene
@@ -993,6 +995,7 @@ mod embree {
     const RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT: u32 = 0;
     const RTC_INTERSECT_CONTEXT_FLAG_COHERENT: u32 = 1;
     const RTC_INVALID_GEOMETRY_ID: u32 = u32::MAX;
+    const RTC_SCENE_FLAG_ROBUST: u32 = 1 << 2;
 
     #[repr(C)]
     struct RTCIntersectContext {
@@ -1058,6 +1061,7 @@ mod embree {
         fn rtcNewDevice(config: *const c_char) -> *mut c_void;
         fn rtcReleaseDevice(device: *mut c_void);
         fn rtcNewScene(device: *mut c_void) -> *mut c_void;
+        fn rtcSetSceneFlags(scene: *mut c_void, flags: u32);
         fn rtcReleaseScene(scene: *mut c_void);
         fn rtcNewGeometry(device: *mut c_void, ty: u32) -> *mut c_void;
         fn rtcSetNewGeometryBuffer(
@@ -1153,13 +1157,20 @@ mod embree {
     }
 
     impl Scene {
-        /// Builds an Embree scene over the triangles of `g` (default quality).
+        /// Builds an Embree scene over the triangles of `g` (default quality;
+        /// with `BVH_BENCH_EMBREE_ROBUST` set (not to 0), Embree's robust mode: its
+        /// conservative box and watertight triangle tests, which wavepath's
+        /// walk always does).
         pub fn new(device: &Device, g: &Geometry) -> Scene {
             let t = &g.triangles;
             // SAFETY: buffers are allocated by Embree with the sizes given and
             // filled within those bounds before commit.
             unsafe {
                 let scene = rtcNewScene(device.0);
+                if std::env::var("BVH_BENCH_EMBREE_ROBUST").is_ok_and(|v| !v.is_empty() && v != "0")
+                {
+                    rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
+                }
                 let geom = rtcNewGeometry(device.0, RTC_GEOMETRY_TYPE_TRIANGLE);
                 let v = rtcSetNewGeometryBuffer(
                     geom,
