@@ -49,6 +49,18 @@ pub fn store(v: &mut [f32], start: usize, x: f32x8) {
     }
 }
 
+/// [`store`] for sixteen lanes: the two halves of `x` at `start` and
+/// `start + 8`, as many lanes as fit.
+#[inline(always)]
+pub fn store_x16(v: &mut [f32], start: usize, x: wide::f32x16) {
+    let a = x.to_array();
+    let (lo, hi) = a.split_at(8);
+    store(v, start, f32x8::from(<[f32; 8]>::try_from(lo).unwrap()));
+    if start + 8 < v.len() {
+        store(v, start + 8, f32x8::from(<[f32; 8]>::try_from(hi).unwrap()));
+    }
+}
+
 /// Appends the first `n` entries of `group` to `v`. A whole group is a
 /// copy of constant size (straight vector moves); only a partial one takes
 /// a run-time length (a call to `memcpy`).

@@ -13,12 +13,12 @@
 //! stay unbiased. One-dimensional draws (roulette, picking a triangle) are
 //! independent hashes of a counter.
 
-use wide::{f32x8, i32x8, u32x8};
+use wide::{f32x8, f32x16, i32x8, i32x16, u32x8, u32x16};
 
 use crate::lanes;
 
 /// The integer operations the sampler's hashes are made of, for one stream
-/// (`u32`) or eight at once (`u32x8`). Every hash below is written once,
+/// (`u32`) or eight or sixteen at once (`u32x8`, `u32x16`). Every hash below is written once,
 /// generically, so the batched draws ([`VertexDraws`]) are bit for bit the
 /// scalar ones. Bit operations are the types' own operators; arithmetic
 /// wraps (`u32x8` always does, `u32` by its `wrapping_*` methods).
@@ -59,35 +59,43 @@ impl Word for u32 {
     }
 }
 
-impl Word for u32x8 {
-    #[inline(always)]
-    fn splat(c: u32) -> Self {
-        u32x8::splat(c)
-    }
-    #[inline(always)]
-    fn add(self, rhs: Self) -> Self {
-        self + rhs
-    }
-    #[inline(always)]
-    fn mul(self, rhs: Self) -> Self {
-        self * rhs
-    }
-    /// Swaps ever smaller halves: 16-bit, 8-bit, … 1-bit fields.
-    #[inline(always)]
-    fn reverse_bits(self) -> Self {
-        let mut x = (self >> 16) | (self << 16);
-        for (bits, mask) in [
-            (8, 0x00ff_00ffu32),
-            (4, 0x0f0f_0f0f),
-            (2, 0x3333_3333),
-            (1, 0x5555_5555),
-        ] {
-            let m = u32x8::splat(mask);
-            x = ((x >> bits) & m) | ((x & m) << bits);
+/// [`Word`] for a vector of `u32` lanes: eight streams at once, or
+/// sixteen (one AVX-512 register) in the wave's draws.
+macro_rules! word_lanes {
+    ($t:ty) => {
+        impl Word for $t {
+            #[inline(always)]
+            fn splat(c: u32) -> Self {
+                <$t>::splat(c)
+            }
+            #[inline(always)]
+            fn add(self, rhs: Self) -> Self {
+                self + rhs
+            }
+            #[inline(always)]
+            fn mul(self, rhs: Self) -> Self {
+                self * rhs
+            }
+            /// Swaps ever smaller halves: 16-bit, 8-bit, … 1-bit fields.
+            #[inline(always)]
+            fn reverse_bits(self) -> Self {
+                let mut x = (self >> 16) | (self << 16);
+                for (bits, mask) in [
+                    (8, 0x00ff_00ffu32),
+                    (4, 0x0f0f_0f0f),
+                    (2, 0x3333_3333),
+                    (1, 0x5555_5555),
+                ] {
+                    let m = <$t>::splat(mask);
+                    x = ((x >> bits) & m) | ((x & m) << bits);
+                }
+                x
+            }
         }
-        x
-    }
+    };
 }
+word_lanes!(u32x8);
+word_lanes!(u32x16);
 
 /// A 32-bit integer hash with good avalanche (Wellons' `lowbias32`).
 #[inline]
@@ -138,6 +146,14 @@ fn to_unit_floats(bits: u32x8) -> f32x8 {
     let top: u32x8 = bits >> 8u32;
     let top = i32x8::new(top.to_array().map(|b| b as i32));
     top.round_float() * f32x8::splat(1.0 / 16_777_216.0)
+}
+
+/// [`to_unit_floats`] for sixteen lanes.
+#[inline(always)]
+fn to_unit_floats_x16(bits: u32x16) -> f32x16 {
+    let top: u32x16 = bits >> 8u32;
+    let top = i32x16::new(top.to_array().map(|b| b as i32));
+    top.round_float() * f32x16::splat(1.0 / 16_777_216.0)
 }
 
 /// The Laine–Karras permutation: each output bit depends only on the same
@@ -328,7 +344,10 @@ impl PairBlock {
 }
 
 /// The two-dimensional draws of one path vertex for a whole wave of
-/// streams, computed eight streams at a time.
+/// streams, computed sixteen streams at a time (one AVX-512 register per
+/// word; two AVX2 ones elsewhere, as eight at a time were: on the
+/// project's AVX-512 hosts this took the stage from 5.1% to 3.5% of a
+/// render, PERF.md).
 ///
 /// Scalar, a draw is a chain of ~20 dependent multiplies and shifts that
 /// the shading loop waited for twice per vertex; across streams the same
@@ -369,18 +388,18 @@ impl VertexDraws {
             self.u.resize(slots * n, 0.0);
             self.v.resize(slots * n, 0.0);
         }
-        for (chunk, group) in streams.chunks(8).enumerate() {
-            let start = chunk * 8;
-            let StreamLanes { key, sample, pair } = StreamLanes::of(group);
+        for (chunk, group) in streams.chunks(16).enumerate() {
+            let start = chunk * 16;
+            let StreamLanes { key, sample, pair } = StreamLanes::<u32x16>::of::<16>(group);
             let mut slot = 0;
             for (b, &count) in self.counts.iter().enumerate() {
-                let seeds = PairSeeds::new(key, pair + u32x8::splat(b as u32));
-                let first = sample * u32x8::splat(block_stride(count));
+                let seeds = PairSeeds::new(key, pair + u32x16::splat(b as u32));
+                let first = sample * u32x16::splat(block_stride(count));
                 for j in 0..count {
-                    let (x, y) = seeds.point(first + u32x8::splat(j));
+                    let (x, y) = seeds.point(first + u32x16::splat(j));
                     let row = slot * n..(slot + 1) * n;
-                    lanes::store(&mut self.u[row.clone()], start, to_unit_floats(x));
-                    lanes::store(&mut self.v[row], start, to_unit_floats(y));
+                    lanes::store_x16(&mut self.u[row.clone()], start, to_unit_floats_x16(x));
+                    lanes::store_x16(&mut self.v[row], start, to_unit_floats_x16(y));
                     slot += 1;
                 }
             }
@@ -431,28 +450,32 @@ pub fn next_1d_x8(streams: &mut [SampleStream], mask: u32) -> f32x8 {
     to_unit_floats(weyl_hash(u32x8::from(base), u32x8::from(dimension)))
 }
 
-/// The counters of up to eight streams, one per lane (zeros past the end).
-struct StreamLanes {
-    key: u32x8,
-    sample: u32x8,
-    pair: u32x8,
+/// The counters of up to `N` streams, one per lane (zeros past the end):
+/// eight for the camera samples' offsets, sixteen for the wave's draws.
+struct StreamLanes<W> {
+    key: W,
+    sample: W,
+    pair: W,
 }
 
-impl StreamLanes {
+impl<W> StreamLanes<W> {
     #[inline(always)]
-    fn of(group: &[SampleStream]) -> StreamLanes {
-        // A full group copies a constant eight lanes, which unrolls into
-        // straight-line loads; the run-time length of the tail's loop cost
-        // a fifth of the draw stage's time when every group took it.
-        let full: Option<&[SampleStream; 8]> = group.try_into().ok();
+    fn of<const N: usize>(group: &[SampleStream]) -> StreamLanes<W>
+    where
+        W: From<[u32; N]>,
+    {
+        // A full group copies a constant number of lanes, which unrolls
+        // into straight-line loads; the run-time length of the tail's loop
+        // cost a fifth of the draw stage's time when every group took it.
+        let full: Option<&[SampleStream; N]> = group.try_into().ok();
         let field = |f: fn(&SampleStream) -> u32| match full {
-            Some(full) => u32x8::from(full.each_ref().map(f)),
+            Some(full) => W::from(full.each_ref().map(f)),
             None => {
-                let mut a = [0u32; 8];
+                let mut a = [0u32; N];
                 for (x, s) in a.iter_mut().zip(group) {
                     *x = f(s);
                 }
-                u32x8::from(a)
+                W::from(a)
             }
         };
         StreamLanes {
@@ -481,7 +504,7 @@ pub fn new_streams(seed: u32, pixels: [u32; 8], samples: [u32; 8]) -> [SampleStr
 /// [`SampleStream::pixel_offset`] of up to eight streams at once (lanes
 /// past `streams.len()` are unspecified).
 pub fn pixel_offsets(streams: &[SampleStream]) -> ([f32; 8], [f32; 8]) {
-    let StreamLanes { key, sample, .. } = StreamLanes::of(streams);
+    let StreamLanes { key, sample, .. } = StreamLanes::<u32x8>::of::<8>(streams);
     let (x, y) = PairSeeds::new(key, u32x8::splat(0)).point(sample);
     (to_unit_floats(x).to_array(), to_unit_floats(y).to_array())
 }
@@ -706,12 +729,21 @@ mod tests {
 
     #[test]
     fn batched_draws_are_the_scalar_draws() {
-        // 13 streams: one full group of eight and a partial one, at
-        // different pairs and samples (large ones, so indices wrap). The
-        // waves ask for 3, then 25, then 2 draws per stream, so the
-        // buffers must grow between the first two.
+        // Streams in groups of sixteen: a partial group alone (5), one
+        // shorter than eight (21 = 16 + 5) and one longer (27 = 16 + 11),
+        // so both halves of a group's stores meet a tail.
+        for n in [5, 21, 27] {
+            batched_draws_match(n);
+        }
+    }
+
+    /// [`batched_draws_are_the_scalar_draws`] for `n` streams.
+    fn batched_draws_match(n: u32) {
+        // Streams at different pairs and samples (large ones, so indices
+        // wrap). The waves ask for 3, then 25, then 2 draws per stream, so
+        // the buffers must grow between the first two.
         let waves: [&[u32]; 3] = [&[1, 2], &[1, 4, 3, 1, 16], &[2]];
-        let mut streams: Vec<SampleStream> = (0..13u32)
+        let mut streams: Vec<SampleStream> = (0..n)
             .map(|i| {
                 let mut s = SampleStream::new(21, 1000 + i, i * 0x1357_9bdf);
                 for _ in 0..i % 3 {
