@@ -18,10 +18,11 @@ use wide::{f32x8, f32x16, i32x8, i32x16, u32x8, u32x16};
 use crate::lanes;
 
 /// The integer operations the sampler's hashes are made of, for one stream
-/// (`u32`) or eight or sixteen at once (`u32x8`, `u32x16`). Every hash below is written once,
-/// generically, so the batched draws ([`VertexDraws`]) are bit for bit the
-/// scalar ones. Bit operations are the types' own operators; arithmetic
-/// wraps (`u32x8` always does, `u32` by its `wrapping_*` methods).
+/// (`u32`) or eight or sixteen at once (`u32x8`, `u32x16`). Every hash
+/// below is written once, generically, so the batched draws
+/// ([`VertexDraws`]) are bit for bit the scalar ones. Bit operations are
+/// the types' own operators; arithmetic wraps (the vectors' always does,
+/// `u32`'s by its `wrapping_*` methods).
 trait Word:
     Copy
     + std::ops::BitXor<Output = Self>
