@@ -746,7 +746,7 @@ mod tests {
         let waves: [&[u32]; 3] = [&[1, 2], &[1, 4, 3, 1, 16], &[2]];
         let mut streams: Vec<SampleStream> = (0..n)
             .map(|i| {
-                let mut s = SampleStream::new(21, 1000 + i, i * 0x1357_9bdf);
+                let mut s = SampleStream::new(21, 1000 + i, i.wrapping_mul(0x1357_9bdf));
                 for _ in 0..i % 3 {
                     s.next_2d();
                 }
