@@ -28,7 +28,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::{CommandFactory, Parser};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -345,16 +345,6 @@ fn load_scene(args: &Args) -> Result<crate::scene::Scene> {
 /// the CS184 renderer reads, or a Radiance HDR one (read before the
 /// scene, which may be large).
 pub(crate) fn load_environment(path: &std::path::Path) -> Result<EnvironmentMap> {
-    let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-    if !["exr", "hdr"]
-        .iter()
-        .any(|e| extension.eq_ignore_ascii_case(e))
-    {
-        bail!(
-            "-e {}: environment maps are read from OpenEXR (.exr) or Radiance HDR (.hdr) files",
-            path.display()
-        );
-    }
     let image = output::read_rgb(path).map_err(|e| anyhow::anyhow!("-e {e:#}"))?;
     EnvironmentMap::new(image.width, image.height, image.pixels)
         .map_err(|e| anyhow::anyhow!("-e {}: {e}", path.display()))

@@ -426,10 +426,17 @@ pub struct RgbImage {
 /// Reads the colour of an OpenEXR (`.exr`) or Radiance HDR (`.hdr`)
 /// image, nothing else: no [`Image`] with its variance and sample planes
 /// (which would double the memory a large map takes while it loads).
+/// Any other extension is refused, by name.
 pub fn read_rgb(path: &Path) -> Result<RgbImage> {
     let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     if extension.eq_ignore_ascii_case("hdr") {
         return read_radiance_hdr(path);
+    }
+    if !extension.eq_ignore_ascii_case("exr") {
+        bail!(
+            "{}: environment maps are read from OpenEXR (.exr) or Radiance HDR (.hdr) files",
+            path.display()
+        );
     }
     let (layer, w, h) = decode_exr(path)?;
     let pixels = exr_colour(path, &layer)?.collect();
